@@ -1,0 +1,75 @@
+//! The force and tangent of one contact on its 6 local entries `[xa, ya, phia, xb, yb, phib]`
+//! (`a` a wall: its displacement vector instead of `xa, ya`, no `phia`).
+//!
+//! With `B_n = d(overlap)/dq = [n, 0, -n, 0]` and `B_t = [-t, -r_a, t, -r_b]`, the contact
+//! pushes its sides with `f = -(F_n B_n + F_s B_t)`, and the tangent `K = -df/dq` is
+//!
+//! `K = F_n' B_n^T B_n + dF_s/dn B_t^T B_n + dF_s/ds B_t^T S + F_n G + F_s H`
+//!
+//! where `S = ds/dq` (the tangent turns as the centres move) and `G`, `H` are the geometric
+//! terms of the rotating normal (`t t^T / d` and `-n t^T / d` on the centres). Only `G` and
+//! the elastic blocks are symmetric; for a symmetric solver `S` is taken as `B_t` and `H` by
+//! its symmetric part.
+
+use super::PairMap;
+use crate::contact::{Kinematics, Response};
+
+/// A contact's force on, and stiffness of, the unknowns it touches.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct LocalBlock {
+    /// Force on each reduced unknown.
+    pub force: [f64; 6],
+    /// Tangent `-df/dq`, row-major over the reduced unknowns.
+    pub stiffness: [[f64; 6]; 6],
+}
+
+/// The force and tangent of one contact, reduced to the unknowns of `map`.
+pub fn contact_block(k: &Kinematics, r: &Response, map: &PairMap, symmetric: bool) -> LocalBlock {
+    let (n, t) = (k.normal, k.tangent);
+    let bn = [n[0], n[1], 0.0, -n[0], -n[1], 0.0];
+    let bt = [-t[0], -t[1], -k.radius_a, t[0], t[1], -k.radius_b];
+    let g = if symmetric { 1.0 } else { k.shear_scale };
+    let s = [-g * t[0], -g * t[1], -k.radius_a, g * t[0], g * t[1], -k.radius_b];
+
+    let mut f = [0.0; 6];
+    let mut kl = [[0.0; 6]; 6];
+    for a in 0..6 {
+        f[a] = -(r.normal_force * bn[a] + r.shear_force * bt[a]);
+        for b in 0..6 {
+            kl[a][b] = r.dfn_dn * bn[a] * bn[b] + r.dfs_dn * bt[a] * bn[b] + r.dfs_ds * bt[a] * s[b];
+        }
+    }
+    if !k.wall {
+        // Geometric terms on the centre entries: blocks [[-X, X], [X, -X]] for G and
+        // [[X, -X], [-X, X]] for H, with X the 2x2 term.
+        let d = k.distance;
+        for p in 0..2 {
+            for q in 0..2 {
+                let gpq = r.normal_force * t[p] * t[q] / d;
+                let hpq = if symmetric {
+                    -0.5 * r.shear_force * (n[p] * t[q] + t[p] * n[q]) / d
+                } else {
+                    -r.shear_force * n[p] * t[q] / d
+                };
+                kl[p][q] += -gpq + hpq;
+                kl[p][3 + q] += gpq - hpq;
+                kl[3 + p][q] += gpq - hpq;
+                kl[3 + p][3 + q] += -gpq + hpq;
+            }
+        }
+    }
+
+    let mut out = LocalBlock::default();
+    for a in 0..6 {
+        let Some((ra, wa)) = map.feeds[a] else {
+            continue;
+        };
+        out.force[ra] += wa * f[a];
+        for b in 0..6 {
+            if let Some((rb, wb)) = map.feeds[b] {
+                out.stiffness[ra][rb] += wa * wb * kl[a][b];
+            }
+        }
+    }
+    out
+}

@@ -1,0 +1,204 @@
+//! Assembly: the map from grains and walls to unknowns (only those the scene needs), the
+//! sparsity pattern built once from the friends lists (symbolic), and the residual and
+//! tangent scattered into that fixed pattern every iteration (numeric).
+//!
+//! Contract: the [`Pattern`] depends only on the friends lists and the [`DofMap`]; contacts
+//! may open and close freely inside it. A new pattern (and so a new symbolic factorisation)
+//! is needed only when the friends lists are rebuilt.
+
+mod local;
+
+pub use local::{contact_block, LocalBlock};
+
+use crate::geometry::{FriendSet, Pair, Side, WallSet};
+use faer::sparse::SymbolicSparseColMat;
+
+/// Which unknowns exist: `x, y` (and `phi` unless rotations are fixed) per grain, then one
+/// normal position per stress-controlled wall.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DofMap {
+    /// Unknowns per grain: 2 or 3.
+    pub per_grain: usize,
+    /// Number of grains.
+    pub grains: usize,
+    /// The unknown of each wall, `None` for prescribed walls.
+    pub wall: Vec<Option<usize>>,
+    /// Total number of unknowns.
+    pub len: usize,
+}
+
+impl DofMap {
+    /// Unknowns for `grains` grains and the stress-controlled walls of `walls`.
+    pub fn new(grains: usize, fixed_rotations: bool, walls: &WallSet) -> Self {
+        let per_grain = if fixed_rotations { 2 } else { 3 };
+        let mut next = grains * per_grain;
+        let wall = walls
+            .walls
+            .iter()
+            .map(|w| {
+                (w.control == crate::geometry::WallControl::Stress).then(|| {
+                    next += 1;
+                    next - 1
+                })
+            })
+            .collect();
+        DofMap {
+            per_grain,
+            grains,
+            wall,
+            len: next,
+        }
+    }
+
+    /// First unknown of grain `i`.
+    pub fn grain(&self, i: usize) -> usize {
+        i * self.per_grain
+    }
+
+    /// Whether grains have a rotation unknown.
+    pub fn rotations(&self) -> bool {
+        self.per_grain == 3
+    }
+
+    /// The grain an unknown belongs to (`None` for wall unknowns).
+    pub fn owner(&self, dof: usize) -> Option<usize> {
+        (dof < self.grains * self.per_grain).then(|| dof / self.per_grain)
+    }
+
+    /// The reduced unknowns of a pair and, for each of the 6 local entries
+    /// `[xa, ya, phia, xb, yb, phib]`, which reduced unknown it feeds and with what weight.
+    pub fn pair_map(&self, pair: Pair, walls: &WallSet) -> PairMap {
+        let mut m = PairMap::default();
+        match pair.a {
+            Side::Grain(a) => m.push_grain(self, a, 0),
+            Side::Wall(w) => {
+                if let Some(dof) = self.wall[w] {
+                    let n = walls.walls[w].normal;
+                    let k = m.add(dof);
+                    m.feeds[0] = Some((k, n[0]));
+                    m.feeds[1] = Some((k, n[1]));
+                }
+            }
+        }
+        m.push_grain(self, pair.b, 3);
+        m
+    }
+}
+
+/// The unknowns one contact touches (at most 6) and how its 6 local entries feed them.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct PairMap {
+    /// Global unknowns, in local order.
+    pub dofs: [usize; 6],
+    /// How many of `dofs` are used.
+    pub len: usize,
+    /// For each local entry: (index into `dofs`, weight).
+    pub feeds: [Option<(usize, f64)>; 6],
+}
+
+impl PairMap {
+    fn add(&mut self, dof: usize) -> usize {
+        self.dofs[self.len] = dof;
+        self.len += 1;
+        self.len - 1
+    }
+
+    fn push_grain(&mut self, map: &DofMap, i: usize, at: usize) {
+        let base = map.grain(i);
+        for k in 0..map.per_grain {
+            let slot = self.add(base + k);
+            self.feeds[at + k] = Some((slot, 1.0));
+        }
+    }
+}
+
+/// The fixed sparsity pattern (full storage, both triangles) and where each pair's block lands
+/// in the value array.
+#[derive(Debug, Clone)]
+pub struct Pattern {
+    /// Column structure for faer.
+    pub symbolic: SymbolicSparseColMat<usize>,
+    /// For pair `p`, `slots[start[p]..start[p+1]]` holds the value index of each
+    /// (row, column) of its reduced block, row-major.
+    slots: Vec<usize>,
+    start: Vec<usize>,
+    /// Value index of each diagonal entry.
+    pub diagonal: Vec<usize>,
+    /// Value index of the (wall, span wall) entries of follower loads: `(row, col, slot)`.
+    pub couplings: Vec<(usize, usize, usize)>,
+}
+
+impl Pattern {
+    /// The pattern of every friend pair's block, every diagonal entry, and the coupling of a
+    /// stress-controlled wall to the walls that set its loaded length.
+    pub fn build(friends: &FriendSet, dofs: &DofMap, walls: &WallSet) -> Pattern {
+        let n = dofs.len;
+        let mut columns: Vec<Vec<usize>> = (0..n).map(|j| vec![j]).collect();
+        let maps: Vec<PairMap> = friends.pairs.iter().map(|p| dofs.pair_map(*p, walls)).collect();
+        for m in &maps {
+            for &c in &m.dofs[..m.len] {
+                columns[c].extend_from_slice(&m.dofs[..m.len]);
+            }
+        }
+        let mut wanted_couplings = Vec::new();
+        for (w, wall) in walls.walls.iter().enumerate() {
+            let (Some(row), None) = (dofs.wall[w], wall.length) else {
+                continue;
+            };
+            if let Some((a, b)) = walls.span_walls(w) {
+                for col in [dofs.wall[a], dofs.wall[b]].into_iter().flatten() {
+                    columns[col].push(row);
+                    columns[row].push(col);
+                    wanted_couplings.push((row, col));
+                }
+            }
+        }
+        let mut col_ptr = Vec::with_capacity(n + 1);
+        let mut row_idx = Vec::new();
+        col_ptr.push(0);
+        for col in &mut columns {
+            col.sort_unstable();
+            col.dedup();
+            row_idx.extend_from_slice(col);
+            col_ptr.push(row_idx.len());
+        }
+        let slot = |row: usize, col: usize| {
+            let range = col_ptr[col]..col_ptr[col + 1];
+            col_ptr[col] + row_idx[range].binary_search(&row).expect("entry in pattern")
+        };
+        let mut slots = Vec::new();
+        let mut start = Vec::with_capacity(maps.len() + 1);
+        start.push(0);
+        for m in &maps {
+            for r in 0..m.len {
+                for c in 0..m.len {
+                    slots.push(slot(m.dofs[r], m.dofs[c]));
+                }
+            }
+            start.push(slots.len());
+        }
+        let diagonal = (0..n).map(|j| slot(j, j)).collect();
+        let couplings = wanted_couplings
+            .into_iter()
+            .map(|(r, c)| (r, c, slot(r, c)))
+            .collect();
+        let symbolic = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
+        Pattern {
+            symbolic,
+            slots,
+            start,
+            diagonal,
+            couplings,
+        }
+    }
+
+    /// Number of stored entries.
+    pub fn nnz(&self) -> usize {
+        self.symbolic.row_idx().len()
+    }
+
+    /// Value indices of pair `p`'s reduced block, row-major.
+    pub fn pair_slots(&self, p: usize) -> &[usize] {
+        &self.slots[self.start[p]..self.start[p + 1]]
+    }
+}

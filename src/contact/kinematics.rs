@@ -1,0 +1,109 @@
+//! Contact kinematics in the current configuration: normal, overlap, and the shear
+//! displacement made in this increment (the contact point of `b` relative to that of `a`,
+//! along the tangent).
+
+use crate::geometry::{GrainSet, Pair, Side, WallSet};
+
+/// Where everything is now, and how far it moved in this increment.
+#[derive(Debug, Clone, Default)]
+pub struct Configuration {
+    /// Current grain centres.
+    pub position: Vec<[f64; 2]>,
+    /// Centre displacement since the start of the increment.
+    pub displacement: Vec<[f64; 2]>,
+    /// Rotation since the start of the increment.
+    pub rotation: Vec<f64>,
+    /// Current wall line constants `offset + position`.
+    pub wall_line: Vec<f64>,
+    /// Wall displacement vector since the start of the increment.
+    pub wall_displacement: Vec<[f64; 2]>,
+}
+
+impl Configuration {
+    /// The configuration at the start of an increment: nothing has moved yet.
+    pub fn at_rest(grains: &GrainSet, walls: &WallSet) -> Self {
+        Configuration {
+            position: grains.position.clone(),
+            displacement: vec![[0.0; 2]; grains.len()],
+            rotation: vec![0.0; grains.len()],
+            wall_line: walls.walls.iter().map(|w| w.offset + w.position).collect(),
+            wall_displacement: vec![[0.0; 2]; walls.len()],
+        }
+    }
+}
+
+/// The geometry of one contact.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Kinematics {
+    /// Unit normal from `a` to `b`.
+    pub normal: [f64; 2],
+    /// Unit tangent: the normal turned 90 degrees anticlockwise.
+    pub tangent: [f64; 2],
+    /// Centre distance (grain-grain) or centre-to-wall distance (wall) [m].
+    pub distance: f64,
+    /// Overlap `n = r_a + r_b - d` [m].
+    pub overlap: f64,
+    /// Shear displacement of this increment [m].
+    pub shear_increment: f64,
+    /// `1 - (dd . n) / d`: how the rotating tangent scales the shear of a centre displacement.
+    pub shear_scale: f64,
+    /// Radius of side `a` (zero for a wall).
+    pub radius_a: f64,
+    /// Radius of side `b`.
+    pub radius_b: f64,
+    /// Whether side `a` is a wall.
+    pub wall: bool,
+}
+
+/// Kinematics of `pair` in configuration `q`, whose increments are taken from the committed
+/// positions of `grains` and `walls`.
+pub fn kinematics(pair: Pair, grains: &GrainSet, walls: &WallSet, q: &Configuration) -> Kinematics {
+    // Branches are formed as (committed branch) + (increment difference): the rounding
+    // error then scales with the grain size, not with the distance from the origin.
+    let b = pair.b;
+    let (ub, rb) = (q.displacement[b], grains.radius[b]);
+    match pair.a {
+        Side::Grain(a) => {
+            let (ua, ra) = (q.displacement[a], grains.radius[a]);
+            let d0 = grains.branch(a, b);
+            let d = [d0[0] + (ub[0] - ua[0]), d0[1] + (ub[1] - ua[1])];
+            let len = d[0].hypot(d[1]);
+            let n = [d[0] / len, d[1] / len];
+            let t = [-n[1], n[0]];
+            let dd = [ub[0] - ua[0], ub[1] - ua[1]];
+            Kinematics {
+                normal: n,
+                tangent: t,
+                distance: len,
+                overlap: ra + rb - len,
+                shear_increment: dd[0] * t[0] + dd[1] * t[1] - ra * q.rotation[a] - rb * q.rotation[b],
+                shear_scale: 1.0 - (dd[0] * n[0] + dd[1] * n[1]) / len,
+                radius_a: ra,
+                radius_b: rb,
+                wall: false,
+            }
+        }
+        Side::Wall(w) => {
+            let n = walls.walls[w].normal;
+            let t = [-n[1], n[0]];
+            let wall = &walls.walls[w];
+            let uw = q.wall_displacement[w];
+            let (ob, db) = (grains.origin[b], grains.displacement[b]);
+            let dist = (n[0] * ob[0] + n[1] * ob[1] - wall.offset)
+                + (n[0] * db[0] + n[1] * db[1] - wall.position)
+                + (n[0] * (ub[0] - uw[0]) + n[1] * (ub[1] - uw[1]));
+            let dd = [ub[0] - uw[0], ub[1] - uw[1]];
+            Kinematics {
+                normal: n,
+                tangent: t,
+                distance: dist,
+                overlap: rb - dist,
+                shear_increment: dd[0] * t[0] + dd[1] * t[1] - rb * q.rotation[b],
+                shear_scale: 1.0,
+                radius_a: 0.0,
+                radius_b: rb,
+                wall: true,
+            }
+        }
+    }
+}

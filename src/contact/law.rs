@@ -1,0 +1,189 @@
+//! Contact laws (thesis 2.1): the force of one contact from its overlap and its shear
+//! displacement in this increment, by the return map from the last converged state, with
+//! the tangent Newton needs. Each law is trial -> elastic exit -> return map.
+
+/// Which tangent of Coulomb slip to give (thesis 2.4 and the method note).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SlipTangent {
+    /// `k_s = 0` while sliding and no unsymmetric terms: symmetric, for Cholesky (linear rate).
+    ElastoPlastic,
+    /// The exact derivative of the return map: unsymmetric, for LU (quadratic rate).
+    Consistent,
+}
+
+/// The fixed properties of one contact, set when it is made.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ContactParams {
+    /// `k_n` [N/m] for the linear law, `M` [N/m^1.5] for Hertz.
+    pub stiffness: f64,
+    /// `kappa = k_s / k_n`.
+    pub kappa: f64,
+    /// Coulomb friction `f` (`INFINITY`: no slip).
+    pub friction: f64,
+    /// Bond strength `F_t` [N] while the bond is intact.
+    pub strength: f64,
+}
+
+/// What a law returns: the forces and their derivatives.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Response {
+    /// Normal force `F_n` (compression positive) [N].
+    pub normal_force: f64,
+    /// Shear force `F_s` [N].
+    pub shear_force: f64,
+    /// Whether the return map put the contact on the Coulomb limit.
+    pub sliding: bool,
+    /// `dF_n / d overlap`.
+    pub dfn_dn: f64,
+    /// `dF_s / d overlap`.
+    pub dfs_dn: f64,
+    /// `dF_s / d shear displacement`.
+    pub dfs_ds: f64,
+}
+
+/// A contact law: the force by the return map from the committed shear force, and its tangent.
+pub trait ContactLaw: Sync {
+    /// Normal force and `dF_n/dn` at overlap `n` (negative: apart).
+    fn normal(&self, p: &ContactParams, n: f64, bonded: bool) -> (f64, f64);
+
+    /// Shear stiffness `k_s` and `dk_s/dn` at overlap `n`.
+    fn shear_stiffness(&self, p: &ContactParams, n: f64) -> (f64, f64);
+
+    /// The full response: elastic trial `F_s0 + k_s ds`, then, unless bonded, the return
+    /// map onto `|F_s| = f F_n`.
+    fn respond(
+        &self,
+        p: &ContactParams,
+        bonded: bool,
+        overlap: f64,
+        shear_force0: f64,
+        shear_increment: f64,
+        tangent: SlipTangent,
+    ) -> Response {
+        let (normal_force, dfn_dn) = self.normal(p, overlap, bonded);
+        let (ks, dks_dn) = self.shear_stiffness(p, overlap);
+        let trial = shear_force0 + ks * shear_increment;
+        let consistent = tangent == SlipTangent::Consistent;
+        let limit = p.friction * normal_force.max(0.0);
+        if bonded || p.friction.is_infinite() || trial.abs() <= limit {
+            return Response {
+                normal_force,
+                shear_force: trial,
+                sliding: false,
+                dfn_dn,
+                dfs_dn: if consistent { dks_dn * shear_increment } else { 0.0 },
+                dfs_ds: ks,
+            };
+        }
+        // Return map: back onto the Coulomb limit, keeping the direction of the trial force.
+        let sign = trial.signum();
+        let on_limit = normal_force > 0.0;
+        Response {
+            normal_force,
+            shear_force: sign * limit,
+            sliding: true,
+            dfn_dn,
+            dfs_dn: if consistent && on_limit {
+                sign * p.friction * dfn_dn
+            } else {
+                0.0
+            },
+            dfs_ds: 0.0,
+        }
+    }
+}
+
+/// Linear springs with tension while bonded (eqs. 8-12): `F_n = k_n n`, `k_s = kappa k_n`.
+/// Within one Newton pass an unbonded contact keeps its spring in tension too, so that the
+/// equations stay smooth; the topology pass then removes it (method note, step 3).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct LinearCohesive;
+
+impl ContactLaw for LinearCohesive {
+    fn normal(&self, p: &ContactParams, n: f64, _bonded: bool) -> (f64, f64) {
+        (p.stiffness * n, p.stiffness)
+    }
+
+    fn shear_stiffness(&self, p: &ContactParams, _n: f64) -> (f64, f64) {
+        (p.kappa * p.stiffness, 0.0)
+    }
+}
+
+/// Hertz-Mindlin (eqs. 1-7): `F_n = M n^(3/2)`, secant `k_n = M sqrt(n)`, `k_s = kappa k_n`.
+/// `F_n` and its slope vanish together at `n = 0`, so the law is smooth through first touch.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct HertzMindlin;
+
+impl ContactLaw for HertzMindlin {
+    fn normal(&self, p: &ContactParams, n: f64, _bonded: bool) -> (f64, f64) {
+        if n <= 0.0 {
+            return (0.0, 0.0);
+        }
+        let root = n.sqrt();
+        (p.stiffness * n * root, 1.5 * p.stiffness * root)
+    }
+
+    fn shear_stiffness(&self, p: &ContactParams, n: f64) -> (f64, f64) {
+        if n <= 0.0 {
+            return (0.0, 0.0);
+        }
+        let root = n.sqrt();
+        (p.kappa * p.stiffness * root, 0.5 * p.kappa * p.stiffness / root)
+    }
+}
+
+/// `kappa = 3 (1 - nu) / (2 - nu)` (eq. 6).
+pub fn kappa(poisson: f64) -> f64 {
+    3.0 * (1.0 - poisson) / (2.0 - poisson)
+}
+
+/// Hertz grain stiffness `M = 2 sqrt(2 rbar) G / (3 (1 - nu))` (eq. 1).
+pub fn hertz_stiffness(rbar: f64, shear_modulus: f64, poisson: f64) -> f64 {
+    2.0 * (2.0 * rbar).sqrt() * shear_modulus / (3.0 * (1.0 - poisson))
+}
+
+/// `rbar = 2 r_i r_j / (r_i + r_j)`; against a flat wall (`r_j` infinite) it is `2 r_i`.
+pub fn mean_radius(ri: f64, rj: Option<f64>) -> f64 {
+    match rj {
+        Some(rj) => 2.0 * ri * rj / (ri + rj),
+        None => 2.0 * ri,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn params() -> ContactParams {
+        ContactParams {
+            stiffness: 1e8,
+            kappa: kappa(0.16),
+            friction: 0.5,
+            strength: 10.0,
+        }
+    }
+
+    #[test]
+    fn return_map_lands_on_the_coulomb_limit() {
+        let p = params();
+        let r = LinearCohesive.respond(&p, false, 1e-6, 0.0, 1e-5, SlipTangent::Consistent);
+        assert!(r.sliding);
+        assert!((r.shear_force - 0.5 * 100.0).abs() < 1e-12);
+        assert_eq!(r.dfs_ds, 0.0);
+        assert!((r.dfs_dn - 0.5 * 1e8).abs() < 1e-6);
+    }
+
+    #[test]
+    fn hertz_tangent_is_the_derivative() {
+        let p = ContactParams {
+            stiffness: 3e9,
+            ..params()
+        };
+        let n = 2e-7;
+        let h = 1e-13;
+        let (f0, df) = HertzMindlin.normal(&p, n, false);
+        let (f1, _) = HertzMindlin.normal(&p, n + h, false);
+        assert!(((f1 - f0) / h - df).abs() < 1e-5 * df);
+    }
+}

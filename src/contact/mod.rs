@@ -1,0 +1,157 @@
+//! Contacts: the set of touching pairs with their history, and the laws that give their
+//! forces. History (shear force, bond) is committed only when an increment converges
+//! (backup / restore, as pmsim does), so a failed increment can be cut and retried.
+
+mod kinematics;
+pub use kinematics::kinematics;
+mod law;
+
+pub use kinematics::{Configuration, Kinematics};
+pub use law::{
+    hertz_stiffness, kappa, mean_radius, ContactLaw, ContactParams, HertzMindlin, LinearCohesive,
+    Response, SlipTangent,
+};
+
+use crate::geometry::Pair;
+
+/// The state of a contact as written to the output.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(u8)]
+pub enum ContactState {
+    /// Elastic, below the Coulomb limit.
+    Elastic = 0,
+    /// On the Coulomb limit.
+    Sliding = 1,
+    /// Cemented, bond intact.
+    Bonded = 2,
+    /// Cemented once, bond broken, still touching.
+    Broken = 3,
+}
+
+/// How a bond broke (eqs. 11 and 12).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(u8)]
+pub enum BreakMode {
+    /// `F_n < -F_t`.
+    Tension = 0,
+    /// `|F_s| > f F_n + F_t`.
+    Shear = 1,
+}
+
+/// A bond that broke: kept after the grains part, for crack pictures and counts.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BrokenBond {
+    /// The pair.
+    pub pair: Pair,
+    /// Increment in which it broke.
+    pub increment: usize,
+    /// Tension or shear.
+    pub mode: BreakMode,
+}
+
+/// One contact: its pair, its properties and its history.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Contact {
+    /// The two sides.
+    pub pair: Pair,
+    /// Fixed law parameters.
+    pub params: ContactParams,
+    /// Whether the cement bond is intact.
+    pub bonded: bool,
+    /// Whether it was cemented and the bond broke.
+    pub broken: bool,
+    /// Committed shear force at the start of the increment [N].
+    pub shear_force0: f64,
+    /// Committed accumulated shear displacement `s_h` at the start of the increment [m].
+    pub shear_displacement0: f64,
+    /// Shear displacement of the increment already made before the contact was (re)made.
+    pub shear_offset: f64,
+    /// The current response (trial during Newton, converged after it).
+    pub response: Response,
+    /// The current overlap `n` [m].
+    pub overlap: f64,
+    /// The current shear displacement of this increment [m].
+    pub shear_increment: f64,
+}
+
+impl Contact {
+    /// A fresh contact with no history.
+    pub fn new(pair: Pair, params: ContactParams, bonded: bool) -> Self {
+        Contact {
+            pair,
+            params,
+            bonded,
+            broken: false,
+            shear_force0: 0.0,
+            shear_displacement0: 0.0,
+            shear_offset: 0.0,
+            response: Response::default(),
+            overlap: 0.0,
+            shear_increment: 0.0,
+        }
+    }
+
+    /// The output state.
+    pub fn state(&self) -> ContactState {
+        if self.bonded {
+            ContactState::Bonded
+        } else if self.broken {
+            ContactState::Broken
+        } else if self.response.sliding {
+            ContactState::Sliding
+        } else {
+            ContactState::Elastic
+        }
+    }
+
+    /// Accumulated shear displacement including this increment.
+    pub fn shear_displacement(&self) -> f64 {
+        self.shear_displacement0 + self.shear_increment
+    }
+
+    /// Make the converged response the new history.
+    pub fn commit(&mut self) {
+        self.shear_force0 = self.response.shear_force;
+        self.shear_displacement0 += self.shear_increment;
+        self.shear_offset = 0.0;
+        self.shear_increment = 0.0;
+    }
+}
+
+/// All current contacts, ordered by pair, so every pass visits them in the same order.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct ContactSet {
+    /// The contacts.
+    pub contacts: Vec<Contact>,
+    /// Bonds broken so far.
+    pub broken_bonds: Vec<BrokenBond>,
+}
+
+impl ContactSet {
+    /// Number of contacts.
+    pub fn len(&self) -> usize {
+        self.contacts.len()
+    }
+
+    /// Whether there are none.
+    pub fn is_empty(&self) -> bool {
+        self.contacts.is_empty()
+    }
+
+    /// Commit every contact's converged response as its history.
+    pub fn commit(&mut self) {
+        self.contacts.iter_mut().for_each(Contact::commit);
+    }
+
+    /// Mean magnitude of the normal force [N] (the force scale of the convergence test).
+    pub fn mean_normal_force(&self) -> f64 {
+        if self.contacts.is_empty() {
+            return 0.0;
+        }
+        self.contacts
+            .iter()
+            .map(|c| c.response.normal_force.abs())
+            .sum::<f64>()
+            / self.contacts.len() as f64
+    }
+}

@@ -1,0 +1,121 @@
+//! Errors: bad input apart from numerical failure and I/O (exit status 2, 3 and 4 in the CLI).
+
+use std::fmt;
+
+/// Everything grainstat can fail with.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// The user's input (scene, solver file, sample, result file to resume) is wrong.
+    #[error(transparent)]
+    Input(#[from] InputError),
+    /// The numerical method failed; the last converged state has been written.
+    #[error(transparent)]
+    Numeric(#[from] NumericError),
+    /// Reading or writing a file failed.
+    #[error("{path}: {message}")]
+    Io {
+        /// The file.
+        path: String,
+        /// What went wrong.
+        message: String,
+    },
+}
+
+impl Error {
+    /// A file error with its path.
+    pub fn io(path: impl fmt::Display, message: impl fmt::Display) -> Self {
+        Error::Io {
+            path: path.to_string(),
+            message: message.to_string(),
+        }
+    }
+}
+
+/// A problem in an input file: which file, which key, which line, and what is wrong.
+#[derive(Debug, Clone, PartialEq)]
+pub struct InputError {
+    /// The file the problem is in.
+    pub file: String,
+    /// 1-based line, when known.
+    pub line: Option<usize>,
+    /// Dotted key path (`material.friction`, `walls[2].normal`), when known.
+    pub key: Option<String>,
+    /// What is wrong, and what would be right.
+    pub message: String,
+}
+
+impl InputError {
+    /// An error not tied to a key or line.
+    pub fn new(file: impl Into<String>, message: impl Into<String>) -> Self {
+        InputError {
+            file: file.into(),
+            line: None,
+            key: None,
+            message: message.into(),
+        }
+    }
+
+    /// The same error with a key path.
+    pub fn at_key(mut self, key: impl Into<String>) -> Self {
+        self.key = Some(key.into());
+        self
+    }
+
+    /// The same error with a line.
+    pub fn at_line(mut self, line: usize) -> Self {
+        self.line = Some(line);
+        self
+    }
+}
+
+impl fmt::Display for InputError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}", self.file)?;
+        if let Some(line) = self.line {
+            write!(f, ":{line}")?;
+        }
+        if let Some(key) = &self.key {
+            write!(f, ": key `{key}`")?;
+        }
+        write!(f, ": {}", self.message)
+    }
+}
+
+impl std::error::Error for InputError {}
+
+/// A numerical failure of the solver.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum NumericError {
+    /// Newton (with cut-back down to the floor) did not reach the tolerance.
+    #[error(
+        "increment {increment} did not converge: relative residual {residual:.3e} after cutting \
+         the step {cuts} times (worst grain {worst_grain}); the last converged state was written"
+    )]
+    NotConverged {
+        /// The load increment (1-based).
+        increment: usize,
+        /// `|R|_inf / F_ref` at the best iterate.
+        residual: f64,
+        /// The grain with the largest residual.
+        worst_grain: usize,
+        /// How often the increment was halved.
+        cuts: u32,
+    },
+    /// A stage produced NaN or infinity.
+    #[error("{what} is not finite at {place}")]
+    NotFinite {
+        /// The quantity.
+        what: &'static str,
+        /// The grain or contact.
+        place: String,
+    },
+    /// The tangent could not be factorised even with regularisation.
+    #[error("the tangent matrix is singular ({detail})")]
+    Singular {
+        /// What the factorisation reported.
+        detail: String,
+    },
+}
+
+/// Result with grainstat's error.
+pub type Result<T, E = Error> = std::result::Result<T, E>;

@@ -1,0 +1,240 @@
+//! Grains and walls: where things are, and the neighbour ('friends') lists that say which
+//! pairs may touch (thesis appendix 3).
+
+mod friends;
+
+pub use friends::{gap as gap_between, FriendSet, Pair, Side};
+
+/// The grains: centres, rotations and radii, one entry per grain (`GrainId` = index).
+///
+/// A centre is kept as `origin + displacement`: contact geometry is formed from differences
+/// of origins plus differences of displacements, so its rounding error scales with the
+/// grain size and the displacements, not with the distance from the coordinate origin
+/// (which would set a floor on the equilibrium residual of large samples).
+#[derive(Debug, Clone, PartialEq)]
+pub struct GrainSet {
+    /// Centres `x_i = origin + displacement` [m] (kept in step with both).
+    pub position: Vec<[f64; 2]>,
+    /// Where each grain started [m]; never changes.
+    pub origin: Vec<[f64; 2]>,
+    /// Displacement of each centre since the start [m].
+    pub displacement: Vec<[f64; 2]>,
+    /// Rotations `phi_i` [rad], anticlockwise.
+    pub rotation: Vec<f64>,
+    /// Radii `r_i` [m].
+    pub radius: Vec<f64>,
+}
+
+impl GrainSet {
+    /// Grains at rest (zero rotation and displacement).
+    pub fn new(position: Vec<[f64; 2]>, radius: Vec<f64>) -> Self {
+        let n = position.len();
+        GrainSet {
+            origin: position.clone(),
+            position,
+            displacement: vec![[0.0; 2]; n],
+            rotation: vec![0.0; n],
+            radius,
+        }
+    }
+
+    /// Grains at `origin + displacement`.
+    pub fn from_parts(
+        origin: Vec<[f64; 2]>,
+        displacement: Vec<[f64; 2]>,
+        rotation: Vec<f64>,
+        radius: Vec<f64>,
+    ) -> Self {
+        let position = origin
+            .iter()
+            .zip(&displacement)
+            .map(|(o, d)| [o[0] + d[0], o[1] + d[1]])
+            .collect();
+        GrainSet {
+            position,
+            origin,
+            displacement,
+            rotation,
+            radius,
+        }
+    }
+
+    /// Move every grain by `step` (one entry per grain).
+    pub fn displace(&mut self, step: &[[f64; 2]]) {
+        for i in 0..self.len() {
+            let d = &mut self.displacement[i];
+            d[0] += step[i][0];
+            d[1] += step[i][1];
+            let o = self.origin[i];
+            self.position[i] = [o[0] + d[0], o[1] + d[1]];
+        }
+    }
+
+    /// Vector from the centre of grain `a` to that of `b`, formed from differences only.
+    pub fn branch(&self, a: usize, b: usize) -> [f64; 2] {
+        let (oa, ob) = (self.origin[a], self.origin[b]);
+        let (da, db) = (self.displacement[a], self.displacement[b]);
+        [
+            (ob[0] - oa[0]) + (db[0] - da[0]),
+            (ob[1] - oa[1]) + (db[1] - da[1]),
+        ]
+    }
+
+    /// Number of grains.
+    pub fn len(&self) -> usize {
+        self.radius.len()
+    }
+
+    /// Whether there are no grains.
+    pub fn is_empty(&self) -> bool {
+        self.radius.is_empty()
+    }
+
+    /// Mean radius.
+    pub fn mean_radius(&self) -> f64 {
+        self.radius.iter().sum::<f64>() / self.len().max(1) as f64
+    }
+
+    /// Smallest axis-aligned box around all grains: `[xmin, ymin, xmax, ymax]`.
+    pub fn bounding_box(&self) -> [f64; 4] {
+        let mut b = [f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY];
+        for (p, r) in self.position.iter().zip(&self.radius) {
+            b[0] = b[0].min(p[0] - r);
+            b[1] = b[1].min(p[1] - r);
+            b[2] = b[2].max(p[0] + r);
+            b[3] = b[3].max(p[1] + r);
+        }
+        b
+    }
+}
+
+/// How a wall's normal position is governed.
+pub use crate::scene::WallControl;
+
+/// A straight rigid wall: the line `normal . x = offset + position`, grains on the side the
+/// normal points to. It moves along its normal (`position`) and along itself (`slide`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Wall {
+    /// Name from the scene.
+    pub name: String,
+    /// Unit normal into the sample.
+    pub normal: [f64; 2],
+    /// `normal . point` of the wall at the start.
+    pub offset: f64,
+    /// Displacement along the normal since the start [m] (into the sample positive).
+    pub position: f64,
+    /// Displacement along the wall since the start [m] (along `tangent()`).
+    pub slide: f64,
+    /// Prescribed, or an unknown loaded by a stress.
+    pub control: WallControl,
+    /// Applied stress [Pa] (stress-controlled walls).
+    pub stress: f64,
+    /// Fixed loaded length [m]; `None`: the distance between the walls perpendicular to it.
+    pub length: Option<f64>,
+    /// Grain-wall friction `f_gw` (`INFINITY` when glued).
+    pub friction: f64,
+}
+
+impl Wall {
+    /// The direction along the wall: the normal turned 90 degrees anticlockwise.
+    pub fn tangent(&self) -> [f64; 2] {
+        [-self.normal[1], self.normal[0]]
+    }
+
+    /// Signed distance from the wall line to a point (positive on the sample side).
+    pub fn distance(&self, x: [f64; 2]) -> f64 {
+        self.normal[0] * x[0] + self.normal[1] * x[1] - self.offset - self.position
+    }
+
+    /// Whether two walls face each other (opposite normals).
+    pub fn faces(&self, other: &Wall) -> bool {
+        self.normal[0] * other.normal[0] + self.normal[1] * other.normal[1] < -0.999
+    }
+
+    /// Whether two walls are perpendicular.
+    pub fn perpendicular_to(&self, other: &Wall) -> bool {
+        (self.normal[0] * other.normal[0] + self.normal[1] * other.normal[1]).abs() < 1e-3
+    }
+}
+
+/// The walls, with the area they enclose.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct WallSet {
+    /// Every wall, in scene order (`WallId` = index).
+    pub walls: Vec<Wall>,
+}
+
+impl WallSet {
+    /// Number of walls.
+    pub fn len(&self) -> usize {
+        self.walls.len()
+    }
+
+    /// Whether there are no walls.
+    pub fn is_empty(&self) -> bool {
+        self.walls.is_empty()
+    }
+
+    /// The pairs of walls that bound wall `w` on its two ends: walls perpendicular to it that
+    /// face each other. The loaded length of `w` is the distance between them.
+    pub fn span_walls(&self, w: usize) -> Option<(usize, usize)> {
+        let wall = &self.walls[w];
+        for (a, wa) in self.walls.iter().enumerate() {
+            if !wa.perpendicular_to(wall) {
+                continue;
+            }
+            for (b, wb) in self.walls.iter().enumerate().skip(a + 1) {
+                if wb.perpendicular_to(wall) && wa.faces(wb) {
+                    return Some((a, b));
+                }
+            }
+        }
+        None
+    }
+
+    /// Distance between two facing walls.
+    pub fn gap(&self, a: usize, b: usize) -> f64 {
+        let (wa, wb) = (&self.walls[a], &self.walls[b]);
+        // Lines n.x = ca and -n.x = cb: the gap is -(ca + cb).
+        -(wa.offset + wa.position + wb.offset + wb.position)
+    }
+
+    /// Loaded length of wall `w` now: its fixed length or the gap between its span walls.
+    pub fn length(&self, w: usize) -> Option<f64> {
+        match self.walls[w].length {
+            Some(l) => Some(l),
+            None => self.span_walls(w).map(|(a, b)| self.gap(a, b)),
+        }
+    }
+
+    /// Area enclosed by the walls, when they form a closed convex polygon (the intersection of
+    /// their half-planes, taken in the order of their normals' angles).
+    pub fn enclosed_area(&self) -> Option<f64> {
+        if self.walls.len() < 3 {
+            return None;
+        }
+        let mut order: Vec<usize> = (0..self.walls.len()).collect();
+        let angle = |w: &Wall| w.normal[1].atan2(w.normal[0]);
+        order.sort_by(|&a, &b| angle(&self.walls[a]).total_cmp(&angle(&self.walls[b])));
+        let mut corners = Vec::with_capacity(order.len());
+        for k in 0..order.len() {
+            let a = &self.walls[order[k]];
+            let b = &self.walls[order[(k + 1) % order.len()]];
+            let det = a.normal[0] * b.normal[1] - a.normal[1] * b.normal[0];
+            if det.abs() < 1e-9 {
+                return None;
+            }
+            let (ca, cb) = (a.offset + a.position, b.offset + b.position);
+            corners.push([
+                (ca * b.normal[1] - cb * a.normal[1]) / det,
+                (a.normal[0] * cb - b.normal[0] * ca) / det,
+            ]);
+        }
+        let mut area = 0.0;
+        for k in 0..corners.len() {
+            let (p, q) = (corners[k], corners[(k + 1) % corners.len()]);
+            area += p[0] * q[1] - q[0] * p[1];
+        }
+        (area > 0.0).then_some(0.5 * area)
+    }
+}

@@ -1,0 +1,42 @@
+//! # grainstat
+//!
+//! Exact quasi-static discrete element analysis of granular materials in 2D: circular
+//! grains with Hertz-Mindlin (sand) or linear cemented (sandstone) contacts and Coulomb
+//! slip, after S. van Baars, *Discrete Element Analysis of Granular Materials* (TU Delft,
+//! 1996). Where the thesis relaxed grain by grain, grainstat solves each load increment for
+//! the equilibrium of all grains at once.
+//!
+//! ## One load increment
+//! [`Simulation::run_increment`](simulation::Simulation::run_increment) reads like the
+//! pipeline:
+//!
+//! 1. apply the increment: prescribed walls move, wall stresses change ([`scene`]);
+//! 2. contact detection within the friends lists ([`geometry`]);
+//! 3. contact laws by the return map from the last converged state ([`contact`]);
+//! 4. assembly of residual and tangent into a fixed pattern ([`assembly`]);
+//! 5. the linear solve with a cached symbolic factorisation, inside Newton with line
+//!    search and Levenberg-Marquardt regularisation ([`solver`]);
+//! 6. the topology update: contacts made and lost, bonds broken, then Newton again;
+//! 7. measurements ([`measure`]) and output ([`output`]).
+//!
+//! Sign conventions: compression is positive (forces and stresses), rotations are
+//! anticlockwise, `n` points from side `a` to grain `b` of a contact and `t` is `n` turned
+//! 90 degrees anticlockwise. Symbols: `u` is the displacement of the unknowns over the
+//! current load increment, `du` one Newton correction of it.
+
+#![warn(missing_docs)]
+
+pub mod assembly;
+pub mod contact;
+pub mod error;
+pub mod geometry;
+pub mod measure;
+pub mod output;
+pub mod run;
+pub mod samples;
+pub mod scene;
+pub mod simulation;
+pub mod solver;
+pub mod state;
+
+pub use error::{Error, InputError, NumericError, Result};

@@ -1,0 +1,237 @@
+//! The `grainstat` command line: run a scene, summarise a result file.
+
+use clap::{Parser, Subcommand};
+use grainstat::output::{info, ResultFile};
+use grainstat::run::{header, initial_report, run_to_end};
+use grainstat::scene::{build_grains, load_scene, load_solver, parse_scene};
+use grainstat::simulation::Simulation;
+use grainstat::solver::SolverConfig;
+use grainstat::state::IncrementReport;
+use grainstat::{Error, InputError};
+use indicatif::{ProgressBar, ProgressStyle};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+/// Exact quasi-static discrete element analysis of granular materials (2D).
+#[derive(Parser)]
+#[command(version, about, long_about = None)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run a scene: solve every load increment for the equilibrium of all grains at once and
+    /// write the state to HDF5.
+    #[command(after_help = "Examples:\n  grainstat run examples/crystal-biaxial.toml\n  \
+        grainstat run examples/sand-hertz.toml --solver solvers/newton-lu.toml -o sand.h5\n  \
+        grainstat run examples/crystal-biaxial.toml --resume results/crystal-biaxial.h5")]
+    Run {
+        /// Scene file (TOML).
+        scene: PathBuf,
+        /// Solver settings (TOML); default: the built-in Newton-Cholesky settings
+        /// (solvers/newton-cholesky.toml).
+        #[arg(long)]
+        solver: Option<PathBuf>,
+        /// Result file; default: the scene's `output.file`, else results/NAME.h5.
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+        /// Continue the run in this result file from its last complete increment.
+        #[arg(long, value_name = "OUT.h5")]
+        resume: Option<PathBuf>,
+        /// Worker threads (results do not depend on it).
+        #[arg(long, default_value_t = 1)]
+        threads: usize,
+        /// No progress bar and no per-increment log lines.
+        #[arg(long)]
+        quiet: bool,
+    },
+    /// Summarise a result file: scene, increments written, last stresses, timers, counters.
+    #[command(after_help = "Example:\n  grainstat info results/crystal-biaxial.h5")]
+    Info {
+        /// Result file (HDF5).
+        file: PathBuf,
+    },
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Run {
+            scene,
+            solver,
+            output,
+            resume,
+            threads,
+            quiet,
+        } => run(&scene, solver.as_deref(), output, resume, threads, quiet),
+        Command::Info { file } => info(&file).map(|text| print!("{text}")),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(err) => {
+            eprintln!("error: {err}");
+            ExitCode::from(match err {
+                Error::Input(_) => 2,
+                Error::Numeric(_) => 3,
+                Error::Io { .. } => 4,
+            })
+        }
+    }
+}
+
+fn run(
+    scene_path: &Path,
+    solver_path: Option<&Path>,
+    output: Option<PathBuf>,
+    resume: Option<PathBuf>,
+    threads: usize,
+    quiet: bool,
+) -> Result<(), Error> {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads.max(1))
+        .build_global()
+        .map_err(|e| Error::io("thread pool", e))?;
+    let scene_file = scene_path.display().to_string();
+    let (scene, scene_text) = load_scene(scene_path)?;
+    let (config, solver_text) = match solver_path {
+        Some(p) => load_solver(p)?,
+        None => (SolverConfig::default(), String::new()),
+    };
+
+    let (mut sim, mut file) = match &resume {
+        Some(path) => {
+            let (file, head, state) = ResultFile::open_for_resume(path)?;
+            let stored = parse_scene(&head.scene_text, &path.display().to_string())?;
+            if stored != scene {
+                return Err(InputError::new(
+                    &scene_file,
+                    format!(
+                        "this scene differs from the one {} was made with; resume with the \
+                         same scene",
+                        path.display()
+                    ),
+                )
+                .into());
+            }
+            let sim = Simulation::resume(&scene, state, head.depth, config)?;
+            (sim, file)
+        }
+        None => {
+            let base = scene_path.parent().unwrap_or(Path::new("."));
+            let grains = build_grains(&scene.grains, base, &scene_file)?;
+            let sim = Simulation::new(&scene, grains, config, &scene_file)?;
+            let out = output
+                .or_else(|| scene.output.file.as_ref().map(PathBuf::from))
+                .unwrap_or_else(|| PathBuf::from(format!("results/{}.h5", scene.name)));
+            let mut file = ResultFile::create(&out, &header(&sim, &scene_text, &solver_text))?;
+            file.write_increment(&sim.state, &initial_report(&sim), &sim.stats)?;
+            (sim, file)
+        }
+    };
+
+    let total = sim.total_increments() as u64;
+    let bar = if quiet {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new(total)
+    };
+    bar.set_style(
+        ProgressStyle::with_template("{bar:30} {pos}/{len} increments {elapsed} (eta {eta}) {msg}")
+            .expect("valid template"),
+    );
+    bar.set_position(sim.state.increment as u64);
+    if !quiet {
+        bar.println(format!(
+            "{}: {} grains, {} walls, {} unknowns, {} increments -> {}",
+            sim.name,
+            sim.state.grains.len(),
+            sim.state.walls.len(),
+            sim.dofs().len,
+            total,
+            file.path().display()
+        ));
+    }
+    let result = run_to_end(&mut sim, Some(&mut file), scene.output.every, |sim, r| {
+        bar.set_position(r.increment as u64);
+        bar.set_message(format!(
+            "residual {:.1e}, {} contacts",
+            r.residual,
+            sim.state.contacts.len()
+        ));
+        if !quiet {
+            bar.println(log_line(sim, r));
+        }
+    });
+    bar.finish_and_clear();
+    if !quiet {
+        eprintln!("{}", summary(&sim));
+        eprintln!("results: {}", file.path().display());
+    }
+    result
+}
+
+/// One line per increment: solver effort, contacts, and the wall and macro stresses.
+fn log_line(sim: &Simulation, r: &IncrementReport) -> String {
+    let m = &r.measurements;
+    let walls: Vec<String> = sim
+        .state
+        .walls
+        .walls
+        .iter()
+        .zip(&m.wall_stress)
+        .map(|(w, s)| format!("{} {:.4e}", w.name, s))
+        .collect();
+    format!(
+        "inc {:>5} stage {}: {} it, {} pass, {} cuts, residual {:.1e}; contacts {} (+{} -{}), \
+         broken {}; walls [{}] Pa; macro xx {:.4e} yy {:.4e} xy {:.2e} Pa",
+        r.increment,
+        r.stage,
+        r.newton_iterations,
+        r.topology_passes,
+        r.cuts,
+        r.residual,
+        m.grain_contacts + m.wall_contacts,
+        r.contacts_made,
+        r.contacts_lost,
+        m.broken_bonds,
+        walls.join(", "),
+        m.macro_stress[0][0],
+        m.macro_stress[1][1],
+        m.macro_stress[0][1],
+    )
+}
+
+/// The run's timers and counters.
+fn summary(sim: &Simulation) -> String {
+    let t = &sim.stats.timers;
+    let c = &sim.stats.counters;
+    format!(
+        "time [s]: detection {:.3}, return map {:.3}, assembly {:.3}, symbolic {:.3}, \
+         factorisation {:.3}, solve {:.3}, topology {:.3}, output {:.3}\n\
+         counts: {} increments, {} Newton iterations, {} symbolic and {} numeric \
+         factorisations ({} steps on a reused one), {} solves, {} topology passes, \
+         {} friends rebuilds, contacts +{} -{}, {} bonds broken, {} cuts",
+        t.detection,
+        t.return_map,
+        t.assembly,
+        t.symbolic,
+        t.factorisation,
+        t.solve,
+        t.topology,
+        t.output,
+        c.increments,
+        c.newton_iterations,
+        c.symbolic_factorisations,
+        c.numeric_factorisations,
+        c.factorisations_reused,
+        c.solves,
+        c.topology_passes,
+        c.friends_rebuilds,
+        c.contacts_made,
+        c.contacts_lost,
+        c.bonds_broken,
+        c.cuts
+    )
+}

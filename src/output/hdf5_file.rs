@@ -1,0 +1,1302 @@
+//! The HDF5 result file: written after each increment, read back to resume a run, to plot
+//! and to inspect (`grainstat info`).
+//!
+//! A run killed at any moment must leave a file that can be resumed, so each increment is
+//! written into its own group, its `complete` attribute is set last and the file is flushed;
+//! on resume every group without it is deleted. Every value a [`State`] holds is stored
+//! exactly (f64 as f64, indices as i64), so a resumed run repeats the uninterrupted one bit
+//! for bit. The layout is documented for Python users in `docs/hdf5-layout.md`; keep the two
+//! in step (and raise [`FORMAT_VERSION`] when a change breaks old readers).
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::str::FromStr;
+
+use hdf5::types::VarLenUnicode;
+use hdf5::{Dataset, Extent, File, Group, H5Type, Location};
+use ndarray::{s, Array1, ArrayView, ArrayView1, ArrayView2};
+
+use crate::contact::{BreakMode, BrokenBond, Contact, ContactParams, ContactSet, Response};
+use crate::error::{Error, InputError};
+use crate::geometry::{GrainSet, Pair, Side, Wall, WallControl, WallSet};
+use crate::solver::stats::{Counters, SolverStats, StageTimers};
+use crate::state::{IncrementReport, State};
+
+/// Value of the root attribute `format`: tells our files from other HDF5 files.
+pub const FORMAT: &str = "grainstat-result";
+
+/// Version of the layout, root attribute `format_version`.
+pub const FORMAT_VERSION: i64 = 1;
+
+/// Datasets with fewer elements than this are stored plain: filters on tiny data only cost.
+const CHUNK_THRESHOLD: usize = 512;
+
+/// Elements per chunk of a large dataset (128 KiB of f64).
+const CHUNK_ELEMENTS: usize = 16_384;
+
+/// Rows per chunk of the growable `/history` datasets.
+const HISTORY_CHUNK: usize = 256;
+
+/// Digits of an increment group's name: fixed width, so lexical order is numeric order.
+const GROUP_DIGITS: usize = 8;
+
+/// The static description of a run, written once when the file is created.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunHeader {
+    /// Scene name.
+    pub scene_name: String,
+    /// The scene file as read (TOML), so the file alone says what was run.
+    pub scene_text: String,
+    /// The solver file as read (TOML).
+    pub solver_text: String,
+    /// grainstat version that wrote the file (`env!("CARGO_PKG_VERSION")`).
+    pub version: String,
+    /// Depth `D` [m] that turns 2D forces into stresses.
+    pub depth: f64,
+    /// Grain radii [m]; they never change, so they are not repeated per increment.
+    pub radius: Vec<f64>,
+    /// The static part of each wall, in scene order.
+    pub walls: Vec<WallHeader>,
+    /// Whether grain rotations are held fixed.
+    pub fixed_rotations: bool,
+    /// Contact law: `"linear"` or `"hertz"`.
+    pub law: String,
+}
+
+/// The part of a [`Wall`] that never changes; position, slide and applied stress come from
+/// each increment.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WallHeader {
+    /// Name from the scene.
+    pub name: String,
+    /// Unit normal into the sample.
+    pub normal: [f64; 2],
+    /// `normal . point` of the wall at the start [m].
+    pub offset: f64,
+    /// Displacement- or stress-controlled.
+    pub control: WallControl,
+    /// Grain-wall friction (`INFINITY` when glued).
+    pub friction: f64,
+    /// Fixed loaded length [m], `None` for the distance between the perpendicular walls.
+    pub length: Option<f64>,
+}
+
+impl WallHeader {
+    /// The static part of a wall.
+    pub fn of(wall: &Wall) -> Self {
+        WallHeader {
+            name: wall.name.clone(),
+            normal: wall.normal,
+            offset: wall.offset,
+            control: wall.control,
+            friction: wall.friction,
+            length: wall.length,
+        }
+    }
+
+    /// The wall again, at a position, slide and applied stress.
+    pub fn wall(&self, position: f64, slide: f64, stress: f64) -> Wall {
+        Wall {
+            name: self.name.clone(),
+            normal: self.normal,
+            offset: self.offset,
+            position,
+            slide,
+            control: self.control,
+            stress,
+            length: self.length,
+            friction: self.friction,
+        }
+    }
+}
+
+impl RunHeader {
+    /// The static parts of a set of walls, for [`RunHeader::walls`].
+    pub fn walls_of(walls: &WallSet) -> Vec<WallHeader> {
+        walls.walls.iter().map(WallHeader::of).collect()
+    }
+}
+
+/// A result file open for writing.
+#[derive(Debug)]
+pub struct ResultFile {
+    file: File,
+    path: PathBuf,
+    grains: usize,
+    walls: usize,
+    history_rows: usize,
+}
+
+/// An internal failure with its message; turned into [`Error::Io`] when writing and into
+/// [`Error::Input`] when reading a file the user gave.
+#[derive(Debug)]
+struct Fail(String);
+
+impl From<hdf5::Error> for Fail {
+    fn from(e: hdf5::Error) -> Self {
+        Fail(e.to_string())
+    }
+}
+
+impl From<ndarray::ShapeError> for Fail {
+    fn from(e: ndarray::ShapeError) -> Self {
+        Fail(e.to_string())
+    }
+}
+
+impl From<String> for Fail {
+    fn from(s: String) -> Self {
+        Fail(s)
+    }
+}
+
+type R<T> = std::result::Result<T, Fail>;
+
+fn input_error(path: &Path, message: impl Into<String>) -> Error {
+    Error::Input(InputError::new(path.display().to_string(), message))
+}
+
+fn read_error(path: &Path) -> impl FnOnce(Fail) -> Error + '_ {
+    move |f| input_error(path, f.0)
+}
+
+fn write_error(path: &Path) -> impl FnOnce(Fail) -> Error + '_ {
+    move |f| Error::io(path.display(), f.0)
+}
+
+impl ResultFile {
+    /// Create (or overwrite) a result file and write the run's static data.
+    pub fn create(path: impl AsRef<Path>, header: &RunHeader) -> Result<ResultFile, Error> {
+        let path = path.as_ref();
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).map_err(|e| Error::io(dir.display(), e))?;
+        }
+        let file = File::create(path).map_err(|e| Error::io(path.display(), e))?;
+        let make = || -> R<()> {
+            write_header(&file, header)?;
+            file.create_group("increments")?;
+            create_history(&file.create_group("history")?, header.walls.len())?;
+            file.flush()?;
+            Ok(())
+        };
+        make().map_err(write_error(path))?;
+        Ok(ResultFile {
+            file,
+            path: path.to_path_buf(),
+            grains: header.radius.len(),
+            walls: header.walls.len(),
+            history_rows: 0,
+        })
+    }
+
+    /// Open a file to continue its run: the last complete increment is the state to resume
+    /// from; incomplete groups (a run killed while writing) and their history rows are
+    /// deleted.
+    pub fn open_for_resume(
+        path: impl AsRef<Path>,
+    ) -> Result<(ResultFile, RunHeader, State), Error> {
+        let path = path.as_ref();
+        let file = open_existing(path, true)?;
+        let header = read_header(&file).map_err(read_error(path))?;
+        let (last, state) = {
+            let inc = file.group("increments").map_err(|e| {
+                input_error(
+                    path,
+                    format!("not a complete result file (no /increments: {e})"),
+                )
+            })?;
+            let groups = increment_groups(&inc).map_err(read_error(path))?;
+            let last = groups
+                .iter()
+                .rev()
+                .find(|(_, _, complete)| *complete)
+                .map(|(k, name, _)| (*k, name.clone()))
+                .ok_or_else(|| input_error(path, "has no complete increment to resume from"))?;
+            let state = inc
+                .group(&last.1)
+                .map_err(Fail::from)
+                .and_then(|g| read_group_state(&g, &header))
+                .map_err(read_error(path))?;
+            let tidy = || -> R<()> {
+                for (_, name, complete) in &groups {
+                    if !complete {
+                        inc.unlink(name)?;
+                    }
+                }
+                Ok(())
+            };
+            tidy().map_err(write_error(path))?;
+            (last.0, state)
+        };
+        let mut out = ResultFile {
+            file,
+            path: path.to_path_buf(),
+            grains: header.radius.len(),
+            walls: header.walls.len(),
+            history_rows: 0,
+        };
+        let mut history = || -> R<()> {
+            let h = out.file.group("history")?;
+            let keep = leading_rows(&h, |k| k <= last as i64)?;
+            truncate_history(&h, keep, out.walls)?;
+            out.history_rows = keep;
+            out.file.flush()?;
+            Ok(())
+        };
+        history().map_err(write_error(path))?;
+        Ok((out, header, state))
+    }
+
+    /// The file's path.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// Write a converged (committed) state with its report as group
+    /// `/increments/<increment>`, append a `/history` row, update `/summary`, then mark the
+    /// group complete and flush. Writing an increment that is already in the file replaces
+    /// it (and drops its history rows and any after them).
+    pub fn write_increment(
+        &mut self,
+        state: &State,
+        report: &IncrementReport,
+        stats: &SolverStats,
+    ) -> Result<(), Error> {
+        self.try_write_increment(state, report, stats)
+            .map_err(write_error(&self.path))
+    }
+
+    /// Write the solver's timers and counters as attributes of `/summary`, replacing the
+    /// last ones.
+    pub fn write_summary(&mut self, stats: &SolverStats) -> Result<(), Error> {
+        let write = || -> R<()> {
+            write_summary_group(&self.file, stats)?;
+            self.file.flush()?;
+            Ok(())
+        };
+        write().map_err(write_error(&self.path))
+    }
+
+    /// Flush and close the file.
+    pub fn close(self) -> Result<(), Error> {
+        let path = self.path;
+        self.file
+            .flush()
+            .map_err(|e| Error::io(path.display(), e))?;
+        self.file.close().map_err(|e| Error::io(path.display(), e))
+    }
+
+    fn try_write_increment(
+        &mut self,
+        state: &State,
+        report: &IncrementReport,
+        stats: &SolverStats,
+    ) -> R<()> {
+        if state.grains.len() != self.grains || state.walls.len() != self.walls {
+            return Err(Fail(format!(
+                "the state has {} grains and {} walls, the file was created for {} and {}",
+                state.grains.len(),
+                state.walls.len(),
+                self.grains,
+                self.walls
+            )));
+        }
+        let k = state.increment;
+        let name = group_name(k);
+        let inc = self.file.group("increments")?;
+        let history = self.file.group("history")?;
+        if inc.link_exists(&name) {
+            inc.unlink(&name)?;
+            let keep = leading_rows(&history, |j| j < k as i64)?;
+            truncate_history(&history, keep, self.walls)?;
+            self.history_rows = keep;
+        }
+        let g = inc.create_group(&name)?;
+        write_group_state(&g, state, report)?;
+        append_history(&history, self.history_rows, self.walls, state, report)?;
+        self.history_rows += 1;
+        write_summary_group(&self.file, stats)?;
+        // Last: only now is the increment whole.
+        set_attr(&g, "complete", &1u8)?;
+        self.file.flush()?;
+        Ok(())
+    }
+}
+
+/// The increments written completely to a result file, in order.
+pub fn read_increments(path: impl AsRef<Path>) -> Result<Vec<usize>, Error> {
+    let path = path.as_ref();
+    let file = open_existing(path, false)?;
+    let read = || -> R<Vec<usize>> {
+        let inc = file.group("increments")?;
+        Ok(increment_groups(&inc)?
+            .into_iter()
+            .filter(|(_, _, complete)| *complete)
+            .map(|(k, _, _)| k)
+            .collect())
+    };
+    read().map_err(read_error(path))
+}
+
+/// The run's header and the state after one complete increment.
+pub fn read_state(path: impl AsRef<Path>, increment: usize) -> Result<(RunHeader, State), Error> {
+    let path = path.as_ref();
+    let file = open_existing(path, false)?;
+    let read = || -> R<(RunHeader, State)> {
+        let header = read_header(&file)?;
+        let inc = file.group("increments")?;
+        let name = group_name(increment);
+        if !inc.link_exists(&name) {
+            return Err(Fail(format!("has no increment {increment}")));
+        }
+        let g = inc.group(&name)?;
+        if !is_complete(&g) {
+            return Err(Fail(format!(
+                "increment {increment} is incomplete (the run stopped while writing it)"
+            )));
+        }
+        let state = read_group_state(&g, &header)?;
+        Ok((header, state))
+    };
+    read().map_err(read_error(path))
+}
+
+/// The timers and counters last written to `/summary`, `None` when there are none yet (so
+/// a resumed run can go on counting).
+pub fn read_summary(path: impl AsRef<Path>) -> Result<Option<SolverStats>, Error> {
+    let path = path.as_ref();
+    let file = open_existing(path, false)?;
+    read_summary_group(&file).map_err(read_error(path))
+}
+
+/// A human summary of a result file, for `grainstat info`.
+pub fn info(path: impl AsRef<Path>) -> Result<String, Error> {
+    let path = path.as_ref();
+    let file = open_existing(path, false)?;
+    let text = || -> R<String> {
+        let header = read_header(&file)?;
+        let inc = file.group("increments")?;
+        let groups = increment_groups(&inc)?;
+        let complete: Vec<usize> = groups.iter().filter(|g| g.2).map(|g| g.0).collect();
+        let mut out = String::new();
+        let w = &mut out;
+        let _ = writeln!(w, "file        {}", path.display());
+        let _ = writeln!(
+            w,
+            "scene       {} (grainstat {}, {} law{})",
+            header.scene_name,
+            header.version,
+            header.law,
+            if header.fixed_rotations {
+                ", rotations fixed"
+            } else {
+                ""
+            }
+        );
+        let _ = writeln!(
+            w,
+            "grains      {} (radius {:.4e} .. {:.4e} m), depth {:.4e} m",
+            header.radius.len(),
+            header.radius.iter().cloned().fold(f64::INFINITY, f64::min),
+            header
+                .radius
+                .iter()
+                .cloned()
+                .fold(f64::NEG_INFINITY, f64::max),
+            header.depth
+        );
+        let walls: Vec<String> = header
+            .walls
+            .iter()
+            .map(|h| format!("{} ({})", h.name, control_name(h.control)))
+            .collect();
+        let _ = writeln!(w, "walls       {}: {}", walls.len(), walls.join(", "));
+        match (complete.first(), complete.last()) {
+            (Some(first), Some(last)) => {
+                let _ = writeln!(
+                    w,
+                    "increments  {} written, {} .. {}",
+                    complete.len(),
+                    first,
+                    last
+                );
+            }
+            _ => {
+                let _ = writeln!(w, "increments  none complete");
+            }
+        }
+        let incomplete = groups.len() - complete.len();
+        if incomplete > 0 {
+            let _ = writeln!(w, "            {incomplete} incomplete (removed on resume)");
+        }
+        if let Some(&last) = complete.last() {
+            let g = inc.group(&group_name(last))?;
+            let _ = writeln!(
+                w,
+                "\nincrement {} (stage {}, increment {} of the stage)",
+                last,
+                get_attr::<i64>(&g, "stage")?,
+                get_attr::<i64>(&g, "stage_increment")?
+            );
+            let position = read_vec::<f64>(&g, "walls/position", Some(header.walls.len()))?;
+            let applied = read_vec::<f64>(&g, "walls/stress", Some(header.walls.len()))?;
+            let measured = read_vec::<f64>(&g, "walls/measured_stress", Some(header.walls.len()))?;
+            let _ = writeln!(
+                w,
+                "  {:<12} {:>14} {:>16} {:>16}",
+                "wall", "position [m]", "applied [Pa]", "measured [Pa]"
+            );
+            for (k, h) in header.walls.iter().enumerate() {
+                let _ = writeln!(
+                    w,
+                    "  {:<12} {:>14.6e} {:>16.6e} {:>16.6e}",
+                    h.name, position[k], applied[k], measured[k]
+                );
+            }
+            let sigma = read_rows::<f64, 2>(&g, "macro_stress", Some(2))?;
+            let _ = writeln!(
+                w,
+                "  macro stress [Pa]  xx {:.6e}  yy {:.6e}  xy {:.6e}  yx {:.6e}",
+                sigma[0][0], sigma[1][1], sigma[0][1], sigma[1][0]
+            );
+            let _ = writeln!(
+                w,
+                "  volume [m^3]       {:.6e}",
+                get_attr::<f64>(&g, "volume")?
+            );
+            let _ = writeln!(
+                w,
+                "  contacts           {} grain-grain, {} grain-wall, {:.4} per grain",
+                get_attr::<i64>(&g, "grain_contacts")?,
+                get_attr::<i64>(&g, "wall_contacts")?,
+                get_attr::<f64>(&g, "contacts_per_grain")?
+            );
+            let _ = writeln!(
+                w,
+                "  bonds              {} intact, {} broken",
+                get_attr::<i64>(&g, "bonds")?,
+                dataset(&g, "broken_bonds")?
+                    .shape()
+                    .first()
+                    .copied()
+                    .unwrap_or(0)
+            );
+            let _ = writeln!(
+                w,
+                "  solver             residual {:.3e}, {} Newton iterations, {} topology passes, {} cuts",
+                get_attr::<f64>(&g, "residual")?,
+                get_attr::<i64>(&g, "newton_iterations")?,
+                get_attr::<i64>(&g, "topology_passes")?,
+                get_attr::<i64>(&g, "cuts")?
+            );
+        }
+        if let Some(mut stats) = read_summary_group(&file)? {
+            let timers = timers_mut(&mut stats.timers);
+            let total: f64 = timers.iter().map(|(_, v)| **v).sum();
+            let _ = writeln!(w, "\ntime [s]    {total:.3} in all");
+            for (name, v) in timers {
+                let _ = writeln!(w, "  {name:<24} {:>10.3}", *v);
+            }
+            let _ = writeln!(w, "counters");
+            for (name, v) in counters_mut(&mut stats.counters) {
+                let _ = writeln!(w, "  {name:<24} {:>10}", *v);
+            }
+        }
+        Ok(out)
+    };
+    text().map_err(read_error(path))
+}
+
+// ---------------------------------------------------------------------------------------
+// Opening.
+
+/// Open a file the user named: a missing file, a directory, or one HDF5 cannot read is an
+/// input error, and so is an HDF5 file that is not ours.
+fn open_existing(path: &Path, write: bool) -> Result<File, Error> {
+    if !path.exists() {
+        return Err(input_error(path, "no such file"));
+    }
+    if path.is_dir() {
+        return Err(input_error(path, "is a directory, not a result file"));
+    }
+    let file = if write {
+        File::open_rw(path)
+    } else {
+        File::open(path)
+    }
+    .map_err(|e| {
+        let e = e.to_string();
+        let hint = if e.contains("lock") {
+            " (is a run still writing it? HDF5_USE_FILE_LOCKING=FALSE reads it anyway)"
+        } else {
+            ""
+        };
+        input_error(path, format!("cannot be opened as an HDF5 file: {e}{hint}"))
+    })?;
+    let format = file
+        .attr("format")
+        .and_then(|a| a.read_scalar::<VarLenUnicode>())
+        .map(|s| s.as_str().to_owned());
+    match format {
+        Ok(f) if f == FORMAT => Ok(file),
+        Ok(f) => Err(input_error(
+            path,
+            format!("not a grainstat result file (format `{f}`)"),
+        )),
+        Err(_) => Err(input_error(
+            path,
+            "not a grainstat result file (no `format` attribute)",
+        )),
+    }
+}
+
+fn group_name(increment: usize) -> String {
+    format!("{increment:0width$}", width = GROUP_DIGITS)
+}
+
+fn is_complete(g: &Group) -> bool {
+    g.attr("complete")
+        .and_then(|a| a.read_scalar::<u8>())
+        .is_ok_and(|v| v == 1)
+}
+
+/// The increment groups by number: (increment, name, complete). Other names are ignored.
+fn increment_groups(inc: &Group) -> R<Vec<(usize, String, bool)>> {
+    let mut groups = Vec::new();
+    for name in inc.member_names()? {
+        if name.is_empty() || !name.bytes().all(|b| b.is_ascii_digit()) {
+            continue;
+        }
+        let Ok(k) = name.parse::<usize>() else {
+            continue;
+        };
+        let complete = inc.group(&name).map(|g| is_complete(&g)).unwrap_or(false);
+        groups.push((k, name, complete));
+    }
+    groups.sort();
+    Ok(groups)
+}
+
+// ---------------------------------------------------------------------------------------
+// Small helpers.
+
+/// Set a scalar attribute, writing over an existing one.
+fn set_attr<T: H5Type>(loc: &Location, name: &str, value: &T) -> R<()> {
+    match loc.attr(name) {
+        Ok(a) => a.write_scalar(value)?,
+        Err(_) => loc.new_attr::<T>().create(name)?.write_scalar(value)?,
+    }
+    Ok(())
+}
+
+fn set_str_attr(loc: &Location, name: &str, value: &str) -> R<()> {
+    set_attr(loc, name, &vlen(value)?)
+}
+
+fn vlen(s: &str) -> R<VarLenUnicode> {
+    VarLenUnicode::from_str(s).map_err(|e| Fail(format!("string {s:?}: {e}")))
+}
+
+fn get_attr<T: H5Type>(loc: &Location, name: &str) -> R<T> {
+    loc.attr(name)
+        .and_then(|a| a.read_scalar::<T>())
+        .map_err(|e| Fail(format!("attribute `{name}` of `{}`: {e}", loc.name())))
+}
+
+fn get_str_attr(loc: &Location, name: &str) -> R<String> {
+    Ok(get_attr::<VarLenUnicode>(loc, name)?.as_str().to_owned())
+}
+
+fn get_count(loc: &Location, name: &str) -> R<usize> {
+    let v = get_attr::<i64>(loc, name)?;
+    usize::try_from(v).map_err(|_| Fail(format!("attribute `{name}` of `{}` is {v}", loc.name())))
+}
+
+/// Write a dataset: chunked, shuffled and deflated when large, plain when small. Zero-size
+/// arrays are plain too (HDF5 cannot chunk them).
+fn put<T: H5Type, D: ndarray::Dimension>(g: &Group, name: &str, data: ArrayView<T, D>) -> R<()> {
+    let shape = data.shape().to_vec();
+    let builder = g.new_dataset_builder();
+    if data.len() >= CHUNK_THRESHOLD {
+        let row = shape[1..].iter().product::<usize>().max(1);
+        let mut chunk = shape.clone();
+        chunk[0] = (CHUNK_ELEMENTS / row).clamp(1, shape[0]);
+        let builder = builder.with_data(data).chunk(chunk).shuffle();
+        if hdf5::filters::deflate_available() {
+            builder.deflate(4).create(name)?;
+        } else {
+            builder.create(name)?;
+        }
+    } else {
+        builder.with_data(data).create(name)?;
+    }
+    Ok(())
+}
+
+fn put_strings(g: &Group, name: &str, values: &[String]) -> R<()> {
+    let v = values.iter().map(|s| vlen(s)).collect::<R<Vec<_>>>()?;
+    put(g, name, ArrayView1::from(&v[..]))
+}
+
+fn put_text(g: &Group, name: &str, text: &str) -> R<()> {
+    g.new_dataset::<VarLenUnicode>()
+        .create(name)?
+        .write_scalar(&vlen(text)?)?;
+    Ok(())
+}
+
+fn dataset(g: &Group, name: &str) -> R<Dataset> {
+    g.dataset(name)
+        .map_err(|e| Fail(format!("dataset `{}/{name}`: {e}", g.name())))
+}
+
+/// A 1-D dataset, of length `len` when given.
+fn read_vec<T: H5Type>(g: &Group, name: &str, len: Option<usize>) -> R<Vec<T>> {
+    let ds = dataset(g, name)?;
+    let shape = ds.shape();
+    if shape.len() != 1 || len.is_some_and(|n| n != shape[0]) {
+        return Err(Fail(format!(
+            "dataset `{}/{name}` has shape {shape:?}, expected ({},)",
+            g.name(),
+            len.map_or("n".into(), |n| n.to_string())
+        )));
+    }
+    ds.read_raw::<T>()
+        .map_err(|e| Fail(format!("dataset `{}/{name}`: {e}", g.name())))
+}
+
+/// An n x C dataset as rows, with n = `len` when given.
+fn read_rows<T: H5Type + Copy + Default, const C: usize>(
+    g: &Group,
+    name: &str,
+    len: Option<usize>,
+) -> R<Vec<[T; C]>> {
+    let ds = dataset(g, name)?;
+    let shape = ds.shape();
+    if shape.len() != 2 || shape[1] != C || len.is_some_and(|n| n != shape[0]) {
+        return Err(Fail(format!(
+            "dataset `{}/{name}` has shape {shape:?}, expected ({}, {C})",
+            g.name(),
+            len.map_or("n".into(), |n| n.to_string())
+        )));
+    }
+    let raw = ds
+        .read_raw::<T>()
+        .map_err(|e| Fail(format!("dataset `{}/{name}`: {e}", g.name())))?;
+    if raw.len() != shape[0] * C {
+        return Err(Fail(format!("dataset `{}/{name}` is short", g.name())));
+    }
+    Ok(raw
+        .chunks_exact(C)
+        .map(|c| {
+            let mut row = [T::default(); C];
+            row.copy_from_slice(c);
+            row
+        })
+        .collect())
+}
+
+fn control_name(c: WallControl) -> &'static str {
+    match c {
+        WallControl::Displacement => "displacement",
+        WallControl::Stress => "stress",
+    }
+}
+
+/// Pair side `a` as stored: a grain index, or `-(w + 1)` for wall `w`.
+fn side_code(a: Side) -> i64 {
+    match a {
+        Side::Grain(i) => i as i64,
+        Side::Wall(w) => -(w as i64) - 1,
+    }
+}
+
+fn decode_pair(a: i64, b: i64, grains: usize, walls: usize) -> R<Pair> {
+    let bad = || Fail(format!("pair ({a}, {b}) names no grain or wall"));
+    let b = usize::try_from(b)
+        .ok()
+        .filter(|&b| b < grains)
+        .ok_or_else(bad)?;
+    let a = if a >= 0 {
+        Side::Grain(
+            usize::try_from(a)
+                .ok()
+                .filter(|&a| a < grains)
+                .ok_or_else(bad)?,
+        )
+    } else {
+        Side::Wall(
+            usize::try_from(-(a + 1))
+                .ok()
+                .filter(|&w| w < walls)
+                .ok_or_else(bad)?,
+        )
+    };
+    Ok(Pair { a, b })
+}
+
+fn timers_mut(t: &mut StageTimers) -> [(&'static str, &mut f64); 8] {
+    [
+        ("detection", &mut t.detection),
+        ("return_map", &mut t.return_map),
+        ("assembly", &mut t.assembly),
+        ("symbolic", &mut t.symbolic),
+        ("factorisation", &mut t.factorisation),
+        ("solve", &mut t.solve),
+        ("topology", &mut t.topology),
+        ("output", &mut t.output),
+    ]
+}
+
+fn counters_mut(c: &mut Counters) -> [(&'static str, &mut usize); 12] {
+    [
+        ("increments", &mut c.increments),
+        ("newton_iterations", &mut c.newton_iterations),
+        ("symbolic_factorisations", &mut c.symbolic_factorisations),
+        ("numeric_factorisations", &mut c.numeric_factorisations),
+        ("factorisations_reused", &mut c.factorisations_reused),
+        ("solves", &mut c.solves),
+        ("topology_passes", &mut c.topology_passes),
+        ("friends_rebuilds", &mut c.friends_rebuilds),
+        ("contacts_made", &mut c.contacts_made),
+        ("contacts_lost", &mut c.contacts_lost),
+        ("bonds_broken", &mut c.bonds_broken),
+        ("cuts", &mut c.cuts),
+    ]
+}
+
+// ---------------------------------------------------------------------------------------
+// Header.
+
+fn write_header(file: &File, h: &RunHeader) -> R<()> {
+    set_str_attr(file, "format", FORMAT)?;
+    set_attr(file, "format_version", &FORMAT_VERSION)?;
+    set_str_attr(file, "grainstat_version", &h.version)?;
+    set_str_attr(file, "scene_name", &h.scene_name)?;
+    set_str_attr(file, "law", &h.law)?;
+    set_attr(file, "depth", &h.depth)?;
+    set_attr(file, "fixed_rotations", &u8::from(h.fixed_rotations))?;
+    set_attr(file, "grains", &(h.radius.len() as i64))?;
+    set_attr(file, "walls", &(h.walls.len() as i64))?;
+
+    let run = file.create_group("run")?;
+    put_text(&run, "scene", &h.scene_text)?;
+    put_text(&run, "solver", &h.solver_text)?;
+
+    let grains = file.create_group("grains")?;
+    put(&grains, "radius", ArrayView1::from(&h.radius[..]))?;
+
+    let walls = file.create_group("walls")?;
+    let names: Vec<String> = h.walls.iter().map(|w| w.name.clone()).collect();
+    put_strings(&walls, "name", &names)?;
+    let normal: Vec<[f64; 2]> = h.walls.iter().map(|w| w.normal).collect();
+    put(&walls, "normal", ArrayView2::from(&normal[..]))?;
+    let offset: Vec<f64> = h.walls.iter().map(|w| w.offset).collect();
+    put(&walls, "offset", ArrayView1::from(&offset[..]))?;
+    let control: Vec<String> = h
+        .walls
+        .iter()
+        .map(|w| control_name(w.control).to_owned())
+        .collect();
+    put_strings(&walls, "control", &control)?;
+    let friction: Vec<f64> = h.walls.iter().map(|w| w.friction).collect();
+    put(&walls, "friction", ArrayView1::from(&friction[..]))?;
+    let length: Vec<f64> = h
+        .walls
+        .iter()
+        .map(|w| w.length.unwrap_or(f64::NAN))
+        .collect();
+    put(&walls, "length", ArrayView1::from(&length[..]))?;
+    Ok(())
+}
+
+fn read_header(file: &File) -> R<RunHeader> {
+    let version = get_attr::<i64>(file, "format_version")?;
+    if version != FORMAT_VERSION {
+        return Err(Fail(format!(
+            "layout version {version}; this grainstat reads version {FORMAT_VERSION}"
+        )));
+    }
+    let text = |name: &str| -> R<String> {
+        let run = file.group("run")?;
+        let v = dataset(&run, name)?
+            .read_scalar::<VarLenUnicode>()
+            .map_err(|e| Fail(format!("dataset `/run/{name}`: {e}")))?;
+        Ok(v.as_str().to_owned())
+    };
+    let grains = file.group("grains")?;
+    let n = get_count(file, "grains")?;
+    let radius = read_vec::<f64>(&grains, "radius", Some(n))?;
+
+    let walls = file.group("walls")?;
+    let w = get_count(file, "walls")?;
+    let names = read_vec::<VarLenUnicode>(&walls, "name", Some(w))?;
+    let normal = read_rows::<f64, 2>(&walls, "normal", Some(w))?;
+    let offset = read_vec::<f64>(&walls, "offset", Some(w))?;
+    let control = read_vec::<VarLenUnicode>(&walls, "control", Some(w))?;
+    let friction = read_vec::<f64>(&walls, "friction", Some(w))?;
+    let length = read_vec::<f64>(&walls, "length", Some(w))?;
+    let walls = (0..w)
+        .map(|k| {
+            let control = match control[k].as_str() {
+                "displacement" => WallControl::Displacement,
+                "stress" => WallControl::Stress,
+                other => return Err(Fail(format!("wall {k} has control `{other}`"))),
+            };
+            Ok(WallHeader {
+                name: names[k].as_str().to_owned(),
+                normal: normal[k],
+                offset: offset[k],
+                control,
+                friction: friction[k],
+                length: (!length[k].is_nan()).then_some(length[k]),
+            })
+        })
+        .collect::<R<Vec<_>>>()?;
+
+    Ok(RunHeader {
+        scene_name: get_str_attr(file, "scene_name")?,
+        scene_text: text("scene")?,
+        solver_text: text("solver")?,
+        version: get_str_attr(file, "grainstat_version")?,
+        depth: get_attr::<f64>(file, "depth")?,
+        radius,
+        walls,
+        fixed_rotations: get_attr::<u8>(file, "fixed_rotations")? != 0,
+        law: get_str_attr(file, "law")?,
+    })
+}
+
+// ---------------------------------------------------------------------------------------
+// One increment.
+
+/// `measured[w]` when the report has one value per wall, NaN otherwise (a report without
+/// measurements must not stop the run from being written).
+fn per_wall(values: &[f64], walls: usize) -> Vec<f64> {
+    if values.len() == walls {
+        values.to_vec()
+    } else {
+        vec![f64::NAN; walls]
+    }
+}
+
+fn write_group_state(g: &Group, state: &State, report: &IncrementReport) -> R<()> {
+    let grains = g.create_group("grains")?;
+    put(
+        &grains,
+        "position",
+        ArrayView2::from(&state.grains.position[..]),
+    )?;
+    put(
+        &grains,
+        "rotation",
+        ArrayView1::from(&state.grains.rotation[..]),
+    )?;
+
+    let cs = &state.contacts.contacts;
+    let contacts = g.create_group("contacts")?;
+    let pair: Vec<[i64; 2]> = cs
+        .iter()
+        .map(|c| [side_code(c.pair.a), c.pair.b as i64])
+        .collect();
+    put(&contacts, "pair", ArrayView2::from(&pair[..]))?;
+    let column = |f: fn(&Contact) -> f64| -> Array1<f64> { cs.iter().map(f).collect() };
+    put(
+        &contacts,
+        "normal_force",
+        column(|c| c.response.normal_force).view(),
+    )?;
+    put(
+        &contacts,
+        "shear_force",
+        column(|c| c.response.shear_force).view(),
+    )?;
+    put(
+        &contacts,
+        "shear_displacement",
+        column(|c| c.shear_displacement0).view(),
+    )?;
+    put(&contacts, "overlap", column(|c| c.overlap).view())?;
+    let state_code: Array1<u8> = cs.iter().map(|c| c.state() as u8).collect();
+    put(&contacts, "state", state_code.view())?;
+    let sliding: Array1<u8> = cs.iter().map(|c| u8::from(c.response.sliding)).collect();
+    put(&contacts, "sliding", sliding.view())?;
+    let params: Vec<[f64; 4]> = cs
+        .iter()
+        .map(|c| {
+            let p = &c.params;
+            [p.stiffness, p.kappa, p.friction, p.strength]
+        })
+        .collect();
+    put(&contacts, "params", ArrayView2::from(&params[..]))?;
+    let tangent: Vec<[f64; 3]> = cs
+        .iter()
+        .map(|c| {
+            let r = &c.response;
+            [r.dfn_dn, r.dfs_dn, r.dfs_ds]
+        })
+        .collect();
+    put(&contacts, "tangent", ArrayView2::from(&tangent[..]))?;
+
+    let nw = state.walls.len();
+    let m = &report.measurements;
+    let walls = g.create_group("walls")?;
+    let wall_column =
+        |f: fn(&Wall) -> f64| -> Array1<f64> { state.walls.walls.iter().map(f).collect() };
+    put(&walls, "position", wall_column(|w| w.position).view())?;
+    put(&walls, "slide", wall_column(|w| w.slide).view())?;
+    put(&walls, "stress", wall_column(|w| w.stress).view())?;
+    let normal_force = per_wall(&m.wall_normal_force, nw);
+    put(&walls, "normal_force", ArrayView1::from(&normal_force[..]))?;
+    let shear_force = per_wall(&m.wall_shear_force, nw);
+    put(&walls, "shear_force", ArrayView1::from(&shear_force[..]))?;
+    let measured = per_wall(&m.wall_stress, nw);
+    put(&walls, "measured_stress", ArrayView1::from(&measured[..]))?;
+
+    put(g, "macro_stress", ArrayView2::from(&m.macro_stress[..]))?;
+
+    let broken: Vec<[i64; 4]> = state
+        .contacts
+        .broken_bonds
+        .iter()
+        .map(|b| {
+            [
+                side_code(b.pair.a),
+                b.pair.b as i64,
+                b.increment as i64,
+                b.mode as u8 as i64,
+            ]
+        })
+        .collect();
+    put(g, "broken_bonds", ArrayView2::from(&broken[..]))?;
+
+    let friends = g.create_group("friends")?;
+    put(
+        &friends,
+        "reference",
+        ArrayView2::from(&state.friends_reference[..]),
+    )?;
+    put(
+        &friends,
+        "wall_reference",
+        ArrayView2::from(&state.friends_wall_reference[..]),
+    )?;
+
+    let count = |v: usize| v as i64;
+    set_attr(g, "increment", &count(state.increment))?;
+    set_attr(g, "stage", &count(state.stage))?;
+    set_attr(g, "stage_increment", &count(state.stage_increment))?;
+    set_attr(g, "residual", &report.residual)?;
+    set_attr(g, "newton_iterations", &count(report.newton_iterations))?;
+    set_attr(g, "topology_passes", &count(report.topology_passes))?;
+    set_attr(g, "cuts", &i64::from(report.cuts))?;
+    set_attr(g, "contacts_made", &count(report.contacts_made))?;
+    set_attr(g, "contacts_lost", &count(report.contacts_lost))?;
+    set_attr(g, "bonds_broken", &count(report.bonds_broken))?;
+    set_attr(g, "contacts_per_grain", &m.contacts_per_grain)?;
+    set_attr(g, "grain_contacts", &count(m.grain_contacts))?;
+    set_attr(g, "wall_contacts", &count(m.wall_contacts))?;
+    set_attr(g, "bonds", &count(m.bonds))?;
+    set_attr(g, "volume", &m.volume)?;
+    Ok(())
+}
+
+fn read_group_state(g: &Group, h: &RunHeader) -> R<State> {
+    let n = h.radius.len();
+    let nw = h.walls.len();
+    let grains = g.group("grains")?;
+    let position = read_rows::<f64, 2>(&grains, "position", Some(n))?;
+    let rotation = read_vec::<f64>(&grains, "rotation", Some(n))?;
+
+    let walls = g.group("walls")?;
+    let wall_position = read_vec::<f64>(&walls, "position", Some(nw))?;
+    let slide = read_vec::<f64>(&walls, "slide", Some(nw))?;
+    let stress = read_vec::<f64>(&walls, "stress", Some(nw))?;
+    let walls = h
+        .walls
+        .iter()
+        .enumerate()
+        .map(|(k, w)| w.wall(wall_position[k], slide[k], stress[k]))
+        .collect();
+
+    let c = g.group("contacts")?;
+    let pair = read_rows::<i64, 2>(&c, "pair", None)?;
+    let m = Some(pair.len());
+    let normal_force = read_vec::<f64>(&c, "normal_force", m)?;
+    let shear_force = read_vec::<f64>(&c, "shear_force", m)?;
+    let shear_displacement = read_vec::<f64>(&c, "shear_displacement", m)?;
+    let overlap = read_vec::<f64>(&c, "overlap", m)?;
+    let state_code = read_vec::<u8>(&c, "state", m)?;
+    let sliding = read_vec::<u8>(&c, "sliding", m)?;
+    let params = read_rows::<f64, 4>(&c, "params", m)?;
+    let tangent = read_rows::<f64, 3>(&c, "tangent", m)?;
+    let mut contacts = Vec::with_capacity(pair.len());
+    for k in 0..pair.len() {
+        let (bonded, broken) = match state_code[k] {
+            0 | 1 => (false, false),
+            2 => (true, false),
+            3 => (false, true),
+            s => return Err(Fail(format!("contact {k} has state {s}"))),
+        };
+        contacts.push(Contact {
+            pair: decode_pair(pair[k][0], pair[k][1], n, nw)?,
+            params: ContactParams {
+                stiffness: params[k][0],
+                kappa: params[k][1],
+                friction: params[k][2],
+                strength: params[k][3],
+            },
+            bonded,
+            broken,
+            shear_force0: shear_force[k],
+            shear_displacement0: shear_displacement[k],
+            shear_offset: 0.0,
+            response: Response {
+                normal_force: normal_force[k],
+                shear_force: shear_force[k],
+                sliding: sliding[k] != 0,
+                dfn_dn: tangent[k][0],
+                dfs_dn: tangent[k][1],
+                dfs_ds: tangent[k][2],
+            },
+            overlap: overlap[k],
+            shear_increment: 0.0,
+        });
+    }
+
+    let broken_bonds = read_rows::<i64, 4>(g, "broken_bonds", None)?
+        .into_iter()
+        .map(|[a, b, increment, mode]| {
+            Ok(BrokenBond {
+                pair: decode_pair(a, b, n, nw)?,
+                increment: usize::try_from(increment)
+                    .map_err(|_| Fail(format!("broken bond at increment {increment}")))?,
+                mode: match mode {
+                    0 => BreakMode::Tension,
+                    1 => BreakMode::Shear,
+                    _ => return Err(Fail(format!("broken bond mode {mode}"))),
+                },
+            })
+        })
+        .collect::<R<Vec<_>>>()?;
+
+    let friends = g.group("friends")?;
+    Ok(State {
+        increment: get_count(g, "increment")?,
+        stage: get_count(g, "stage")?,
+        stage_increment: get_count(g, "stage_increment")?,
+        grains: GrainSet::from_parts(position, vec![[0.0; 2]; h.radius.len()], rotation, h.radius.clone()),
+        walls: WallSet { walls },
+        contacts: ContactSet {
+            contacts,
+            broken_bonds,
+        },
+        friends_reference: read_rows::<f64, 2>(&friends, "reference", None)?,
+        friends_wall_reference: read_rows::<f64, 2>(&friends, "wall_reference", None)?,
+    })
+}
+
+// ---------------------------------------------------------------------------------------
+// History: one row per written increment.
+
+const HISTORY_INT: [&str; 13] = [
+    "stage",
+    "stage_increment",
+    "newton_iterations",
+    "topology_passes",
+    "cuts",
+    "contacts_made",
+    "contacts_lost",
+    "bonds_broken",
+    "grain_contacts",
+    "wall_contacts",
+    "bonds",
+    "broken_bonds",
+    // Written last: a row whose increment is present is whole.
+    "increment",
+];
+
+const HISTORY_FLOAT: [&str; 7] = [
+    "residual",
+    "contacts_per_grain",
+    "macro_stress_xx",
+    "macro_stress_yy",
+    "macro_stress_xy",
+    "macro_stress_yx",
+    "volume",
+];
+
+const HISTORY_WALL: [&str; 6] = [
+    "wall_position",
+    "wall_slide",
+    "wall_applied_stress",
+    "wall_normal_force",
+    "wall_shear_force",
+    "wall_stress",
+];
+
+fn create_history(h: &Group, walls: usize) -> R<()> {
+    let filtered = |b: hdf5::DatasetBuilder| {
+        let b = b.shuffle();
+        if hdf5::filters::deflate_available() {
+            b.deflate(4)
+        } else {
+            b
+        }
+    };
+    for name in HISTORY_INT {
+        filtered(h.new_dataset_builder())
+            .empty::<i64>()
+            .shape(0..)
+            .chunk(HISTORY_CHUNK)
+            .create(name)?;
+    }
+    for name in HISTORY_FLOAT {
+        filtered(h.new_dataset_builder())
+            .empty::<f64>()
+            .shape(0..)
+            .chunk(HISTORY_CHUNK)
+            .create(name)?;
+    }
+    // No walls: a zero-width fixed dimension cannot be chunked, so let it grow too.
+    let second = if walls == 0 {
+        Extent::resizable(0)
+    } else {
+        Extent::fixed(walls)
+    };
+    for name in HISTORY_WALL {
+        filtered(h.new_dataset_builder())
+            .empty::<f64>()
+            .shape(vec![Extent::resizable(0), second])
+            .chunk((HISTORY_CHUNK, walls.max(1)))
+            .create(name)?;
+    }
+    Ok(())
+}
+
+fn append_history(
+    h: &Group,
+    row: usize,
+    walls: usize,
+    state: &State,
+    report: &IncrementReport,
+) -> R<()> {
+    let m = &report.measurements;
+    let ints: [i64; 13] = [
+        state.stage as i64,
+        state.stage_increment as i64,
+        report.newton_iterations as i64,
+        report.topology_passes as i64,
+        i64::from(report.cuts),
+        report.contacts_made as i64,
+        report.contacts_lost as i64,
+        report.bonds_broken as i64,
+        m.grain_contacts as i64,
+        m.wall_contacts as i64,
+        m.bonds as i64,
+        state.contacts.broken_bonds.len() as i64,
+        state.increment as i64,
+    ];
+    let floats: [f64; 7] = [
+        report.residual,
+        m.contacts_per_grain,
+        m.macro_stress[0][0],
+        m.macro_stress[1][1],
+        m.macro_stress[0][1],
+        m.macro_stress[1][0],
+        m.volume,
+    ];
+    let column = |f: fn(&Wall) -> f64| -> Vec<f64> { state.walls.walls.iter().map(f).collect() };
+    let wall_rows: [Vec<f64>; 6] = [
+        column(|w| w.position),
+        column(|w| w.slide),
+        column(|w| w.stress),
+        per_wall(&m.wall_normal_force, walls),
+        per_wall(&m.wall_shear_force, walls),
+        per_wall(&m.wall_stress, walls),
+    ];
+    for (name, values) in HISTORY_WALL.iter().zip(&wall_rows) {
+        let ds = dataset(h, name)?;
+        ds.resize([row + 1, walls])?;
+        if walls > 0 {
+            let view = ArrayView2::from_shape((1, walls), &values[..])?;
+            ds.write_slice(view, s![row..row + 1, ..])?;
+        }
+    }
+    for (name, value) in HISTORY_FLOAT.iter().zip(floats) {
+        append_scalar(h, name, row, value)?;
+    }
+    for (name, value) in HISTORY_INT.iter().zip(ints) {
+        append_scalar(h, name, row, value)?;
+    }
+    Ok(())
+}
+
+fn append_scalar<T: H5Type>(h: &Group, name: &str, row: usize, value: T) -> R<()> {
+    let ds = dataset(h, name)?;
+    ds.resize([row + 1])?;
+    ds.write_slice(
+        ArrayView1::from(std::slice::from_ref(&value)),
+        s![row..row + 1],
+    )?;
+    Ok(())
+}
+
+/// Number of leading history rows whose increment passes `keep`, and that every history
+/// dataset holds.
+fn leading_rows(h: &Group, keep: impl Fn(i64) -> bool) -> R<usize> {
+    let increments = read_vec::<i64>(h, "increment", None)?;
+    let mut rows = increments.iter().take_while(|&&k| keep(k)).count();
+    for name in HISTORY_INT
+        .iter()
+        .chain(&HISTORY_FLOAT)
+        .chain(&HISTORY_WALL)
+    {
+        rows = rows.min(dataset(h, name)?.shape().first().copied().unwrap_or(0));
+    }
+    Ok(rows)
+}
+
+fn truncate_history(h: &Group, rows: usize, walls: usize) -> R<()> {
+    for name in HISTORY_INT.iter().chain(&HISTORY_FLOAT) {
+        dataset(h, name)?.resize([rows])?;
+    }
+    for name in HISTORY_WALL {
+        dataset(h, name)?.resize([rows, walls])?;
+    }
+    Ok(())
+}
+
+// ---------------------------------------------------------------------------------------
+// Summary.
+
+fn write_summary_group(file: &File, stats: &SolverStats) -> R<()> {
+    let g = if file.link_exists("summary") {
+        file.group("summary")?
+    } else {
+        file.create_group("summary")?
+    };
+    let mut stats = *stats;
+    for (name, v) in timers_mut(&mut stats.timers) {
+        set_attr(&g, &format!("time_{name}"), &*v)?;
+    }
+    for (name, v) in counters_mut(&mut stats.counters) {
+        set_attr(&g, name, &(*v as i64))?;
+    }
+    Ok(())
+}
+
+fn read_summary_group(file: &File) -> R<Option<SolverStats>> {
+    if !file.link_exists("summary") {
+        return Ok(None);
+    }
+    let g = file.group("summary")?;
+    let mut stats = SolverStats::default();
+    for (name, v) in timers_mut(&mut stats.timers) {
+        *v = get_attr::<f64>(&g, &format!("time_{name}"))?;
+    }
+    for (name, v) in counters_mut(&mut stats.counters) {
+        *v = get_count(&g, name)?;
+    }
+    Ok(Some(stats))
+}

@@ -1,0 +1,10 @@
+//! Output of a run. The result file is HDF5 ([`hdf5_file`]): the run's static data once,
+//! then one group per written increment, a `/history` table for curves and a `/summary` of
+//! the solver's timers and counters. The layout is documented for Python users in
+//! `docs/hdf5-layout.md`.
+
+pub mod hdf5_file;
+
+pub use hdf5_file::{
+    info, read_increments, read_state, read_summary, ResultFile, RunHeader, WallHeader,
+};

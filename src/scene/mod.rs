@@ -1,0 +1,310 @@
+//! The scene file (TOML): what is simulated — grains, material, walls, load program, output.
+//!
+//! A scene says *what*; how it is solved is a separate solver file (see [`crate::solver::SolverConfig`]).
+//! Every length is in metres, every stress in pascals, every force in newtons. Loading a scene
+//! checks it completely: unknown keys, wrong types and out-of-range values are
+//! [`InputError`]s that name the file, the key and the line.
+
+mod load;
+mod validate;
+
+pub use load::{build_grains, load_scene, load_solver, parse_scene, parse_solver};
+
+use serde::{Deserialize, Deserializer, Serialize};
+use std::collections::BTreeMap;
+
+/// A whole scene, as read from its TOML file.
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Scene {
+    /// Short name, used in the output and the progress line.
+    #[serde(default = "default_name")]
+    pub name: String,
+    /// Free text describing the scene.
+    #[serde(default)]
+    pub description: String,
+    /// Grain material and contact law.
+    pub material: Material,
+    /// Where the grains are.
+    pub grains: GrainSource,
+    /// Four walls around the grains' bounding box (bottom, right, top, left), if wanted.
+    #[serde(default, rename = "box")]
+    pub wall_box: Option<WallBox>,
+    /// Straight rigid walls, in addition to those of `box`.
+    #[serde(default)]
+    pub walls: Vec<WallSpec>,
+    /// The load program: stages applied one after another.
+    #[serde(default)]
+    pub stages: Vec<Stage>,
+    /// Where and how often the state is written.
+    #[serde(default)]
+    pub output: OutputSpec,
+}
+
+fn default_name() -> String {
+    "scene".into()
+}
+
+/// The contact law of the grains (thesis section 2.1).
+#[derive(Debug, Clone, Copy, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "kebab-case")]
+pub enum LawKind {
+    /// Linear springs with tension cut-off and cracking: cemented grains, eqs. 8-12.
+    Linear,
+    /// Hertz-Mindlin: sand, eqs. 1-7.
+    Hertz,
+}
+
+/// Which radius product sets the bond strength `F_t` (eq. 12).
+#[derive(Debug, Clone, Copy, Deserialize, Serialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum CohesionRadius {
+    /// `F_t = c_mu * rbar^2` with `rbar = 2 r_i r_j / (r_i + r_j)`.
+    #[default]
+    Mean,
+    /// `F_t = c_mu * r_i * r_j`.
+    Product,
+}
+
+/// Grain material (table 1 for sand, table 8 for sandstone).
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Material {
+    /// The contact law.
+    pub law: LawKind,
+    /// Normal spring stiffness `k_n` [N/m] (linear law).
+    #[serde(default)]
+    pub normal_stiffness: Option<f64>,
+    /// Shear modulus of the grain material `G_mu` [Pa] (Hertz law).
+    #[serde(default)]
+    pub shear_modulus: Option<f64>,
+    /// Poisson's ratio of the grain material `nu_mu`; sets `kappa = 3(1-nu)/(2-nu)`.
+    #[serde(default = "default_poisson")]
+    pub poisson: f64,
+    /// Grain-grain friction `f_gg = tan(phi_mu)`; `"infinite"` for no slip.
+    #[serde(default = "default_friction")]
+    pub friction: Friction,
+    /// Cohesion `c_mu` [N/m^2]: bond strength `F_t = c_mu * r^2` (linear law only).
+    #[serde(default)]
+    pub cohesion: f64,
+    /// Which radius product the bond strength uses.
+    #[serde(default)]
+    pub cohesion_radius: CohesionRadius,
+    /// Bond every grain-grain contact present at the start (cemented sample).
+    #[serde(default)]
+    pub bonded: bool,
+    /// Hold every grain's rotation fixed (thesis 3.2.2): 2 unknowns per grain instead of 3.
+    #[serde(default)]
+    pub fixed_rotations: bool,
+    /// Depth `D` [m] that turns 2D forces into stresses; default: the mean grain diameter.
+    #[serde(default)]
+    pub depth: Option<f64>,
+}
+
+fn default_poisson() -> f64 {
+    0.16
+}
+
+fn default_friction() -> Friction {
+    Friction::Coefficient(0.6)
+}
+
+/// A friction coefficient, or none at all to slip against (`"infinite"`, `"glued"`).
+#[derive(Debug, Clone, Copy, Serialize, PartialEq)]
+#[serde(untagged)]
+pub enum Friction {
+    /// Coulomb friction coefficient `f >= 0`.
+    Coefficient(f64),
+    /// No slip ever.
+    #[serde(serialize_with = "serialize_infinite")]
+    Infinite,
+}
+
+fn serialize_infinite<S: serde::Serializer>(s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str("infinite")
+}
+
+impl Friction {
+    /// The coefficient, `f64::INFINITY` for no slip.
+    pub fn value(self) -> f64 {
+        match self {
+            Friction::Coefficient(f) => f,
+            Friction::Infinite => f64::INFINITY,
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for Friction {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl serde::de::Visitor<'_> for V {
+            type Value = Friction;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a friction coefficient (a number >= 0) or \"infinite\" / \"glued\"")
+            }
+            fn visit_f64<E: serde::de::Error>(self, v: f64) -> Result<Friction, E> {
+                Ok(Friction::Coefficient(v))
+            }
+            fn visit_i64<E: serde::de::Error>(self, v: i64) -> Result<Friction, E> {
+                Ok(Friction::Coefficient(v as f64))
+            }
+            fn visit_u64<E: serde::de::Error>(self, v: u64) -> Result<Friction, E> {
+                Ok(Friction::Coefficient(v as f64))
+            }
+            fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<Friction, E> {
+                match v {
+                    "infinite" | "glued" | "inf" => Ok(Friction::Infinite),
+                    _ => Err(E::invalid_value(serde::de::Unexpected::Str(v), &self)),
+                }
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+/// Where the grains come from: a CSV file, inline lists, or a hexagonal crystal.
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq, Default)]
+#[serde(deny_unknown_fields)]
+pub struct GrainSource {
+    /// CSV file of `x, y, r` per line (relative to the scene file).
+    #[serde(default)]
+    pub file: Option<String>,
+    /// Inline x coordinates [m].
+    #[serde(default)]
+    pub x: Vec<f64>,
+    /// Inline y coordinates [m].
+    #[serde(default)]
+    pub y: Vec<f64>,
+    /// Inline radii [m].
+    #[serde(default)]
+    pub r: Vec<f64>,
+    /// A regular hexagonal crystal of equal grains.
+    #[serde(default)]
+    pub crystal: Option<CrystalSpec>,
+}
+
+/// Equal grains in a hexagonal arrangement: horizontal rows, each row shifted by one radius
+/// from the last; rows alternate between `columns` and `columns - 1` grains (thesis chapter 5:
+/// 21 rows of 15 and 20 rows of 16 is `rows = 41, columns = 16` starting with a short row).
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct CrystalSpec {
+    /// Number of horizontal rows.
+    pub rows: usize,
+    /// Grains in a long row.
+    pub columns: usize,
+    /// Grain radius [m].
+    pub radius: f64,
+    /// Whether the first (bottom) row is a short one.
+    #[serde(default = "yes")]
+    pub short_first: bool,
+}
+
+fn yes() -> bool {
+    true
+}
+
+/// How a wall's normal position is governed.
+#[derive(Debug, Clone, Copy, Deserialize, Serialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum WallControl {
+    /// Prescribed: moved by the load program's displacements only (default: held in place).
+    #[default]
+    Displacement,
+    /// An unknown of the global system, loaded by `stress * length * depth`.
+    Stress,
+}
+
+/// The names of the four walls `box` makes, in this order.
+pub const BOX_SIDES: [&str; 4] = ["bottom", "right", "top", "left"];
+
+/// Four walls on the grains' bounding box.
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct WallBox {
+    /// Friction between grains and these walls (`f_gw`).
+    #[serde(default = "zero_friction")]
+    pub friction: Friction,
+    /// Sides that are stress-controlled (`bottom`, `right`, `top`, `left`); the others are
+    /// displacement-controlled.
+    #[serde(default)]
+    pub stress_controlled: Vec<String>,
+    /// Stress on the stress-controlled sides at the start [Pa].
+    #[serde(default)]
+    pub stress: f64,
+}
+
+fn zero_friction() -> Friction {
+    Friction::Coefficient(0.0)
+}
+
+/// One straight rigid wall: the line through `point` with unit `normal` pointing into the sample.
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct WallSpec {
+    /// Name used by the load program.
+    pub name: String,
+    /// A point on the wall line [m].
+    pub point: [f64; 2],
+    /// Normal pointing into the sample (normalised on load).
+    pub normal: [f64; 2],
+    /// Friction between grains and this wall (`f_gw`).
+    #[serde(default = "zero_friction")]
+    pub friction: Friction,
+    /// Displacement- or stress-controlled.
+    #[serde(default)]
+    pub control: WallControl,
+    /// Stress at the start [Pa] (stress-controlled walls).
+    #[serde(default)]
+    pub stress: f64,
+    /// Loaded length [m]; default: the distance between the two walls perpendicular to it.
+    #[serde(default)]
+    pub length: Option<f64>,
+}
+
+/// One stage of the load program: `increments` equal steps from the state the last stage left.
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Stage {
+    /// Name shown in the log.
+    #[serde(default)]
+    pub name: String,
+    /// Number of load increments in this stage.
+    pub increments: usize,
+    /// Stress each named stress-controlled wall reaches at the end of the stage [Pa].
+    #[serde(default)]
+    pub stress: BTreeMap<String, f64>,
+    /// Normal displacement (into the sample positive) each named displacement-controlled wall
+    /// makes over the stage [m].
+    #[serde(default)]
+    pub displacement: BTreeMap<String, f64>,
+    /// Tangential displacement each named wall makes over the stage [m] (along the wall, the
+    /// normal turned 90 degrees anticlockwise).
+    #[serde(default)]
+    pub shear: BTreeMap<String, f64>,
+}
+
+/// Where the state goes.
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct OutputSpec {
+    /// HDF5 file (relative to the working directory); `-o` overrides it.
+    #[serde(default)]
+    pub file: Option<String>,
+    /// Write every `every`-th increment (the last one is always written).
+    #[serde(default = "one")]
+    pub every: usize,
+}
+
+impl Default for OutputSpec {
+    fn default() -> Self {
+        OutputSpec {
+            file: None,
+            every: 1,
+        }
+    }
+}
+
+fn one() -> usize {
+    1
+}

@@ -1,0 +1,347 @@
+//! Range checks on a parsed scene. Serde has already checked keys and types; this catches
+//! values the types allow but the physics does not (a negative radius, a NaN, a stage that
+//! loads a wall that does not exist), so a run never starts from a scene it cannot finish.
+//!
+//! Each problem is a (key path, message) pair; the loader turns the path into a line.
+
+use super::load::child_key;
+use super::{Friction, GrainSource, LawKind, Material, Scene, WallControl, BOX_SIDES};
+use std::collections::BTreeMap;
+
+/// Every problem in `scene`, as (key path, message) pairs in file order; empty if it is fine.
+pub(crate) fn validate(scene: &Scene) -> Vec<(String, String)> {
+    let mut p = Problems::default();
+    material(&scene.material, &mut p);
+    p.0.extend(grain_problems(&scene.grains));
+    let walls = walls(scene, &mut p);
+    stages(scene, &walls, &mut p);
+    if scene.output.every == 0 {
+        p.push(
+            "output.every",
+            "must be at least 1 (the state is written every `every`-th increment)",
+        );
+    }
+    if scene
+        .output
+        .file
+        .as_deref()
+        .is_some_and(|f| f.trim().is_empty())
+    {
+        p.push("output.file", "must name a file (or leave `file` out)");
+    }
+    p.0
+}
+
+/// The problems of a grain source alone; also used when grains are built outside a scene.
+pub(crate) fn grain_problems(g: &GrainSource) -> Vec<(String, String)> {
+    let mut p = Problems::default();
+    let inline = !(g.x.is_empty() && g.y.is_empty() && g.r.is_empty());
+    let mut found = Vec::new();
+    if g.file.is_some() {
+        found.push("`file`");
+    }
+    if inline {
+        found.push("inline `x`/`y`/`r`");
+    }
+    if g.crystal.is_some() {
+        found.push("`crystal`");
+    }
+    const SOURCES: &str = "`file = \"grains.csv\"`, inline `x`, `y`, `r` lists, or a \
+                           `[grains.crystal]` table";
+    match found.len() {
+        0 => p.push("grains", format!("no grains: give one of {SOURCES}")),
+        1 => {}
+        _ => p.push(
+            "grains",
+            format!(
+                "give exactly one grain source ({SOURCES}), not {}",
+                found.join(" and ")
+            ),
+        ),
+    }
+    if let Some(file) = &g.file {
+        if file.trim().is_empty() {
+            p.push("grains.file", "must name a CSV file of `x, y, r` lines");
+        }
+    }
+    if inline {
+        let n = g.x.len();
+        if n == 0 {
+            p.push(
+                "grains.x",
+                "is empty: `x`, `y` and `r` need one entry per grain",
+            );
+        }
+        for (key, list) in [("y", &g.y), ("r", &g.r)] {
+            if list.len() != n {
+                p.push(
+                    format!("grains.{key}"),
+                    format!(
+                        "has {} entries but `x` has {n}: `x`, `y` and `r` need one entry per grain",
+                        list.len()
+                    ),
+                );
+            }
+        }
+        for (i, &v) in g.x.iter().enumerate() {
+            p.finite(&format!("grains.x[{i}]"), v);
+        }
+        for (i, &v) in g.y.iter().enumerate() {
+            p.finite(&format!("grains.y[{i}]"), v);
+        }
+        for (i, &v) in g.r.iter().enumerate() {
+            p.positive(&format!("grains.r[{i}]"), v);
+        }
+    }
+    if let Some(c) = &g.crystal {
+        if c.rows == 0 {
+            p.push("grains.crystal.rows", "must be at least 1");
+        }
+        if c.columns < 2 {
+            p.push(
+                "grains.crystal.columns",
+                format!(
+                    "must be at least 2 (short rows have `columns - 1` grains), not {}",
+                    c.columns
+                ),
+            );
+        }
+        if c.rows.checked_mul(c.columns).is_none() {
+            p.push("grains.crystal", "`rows * columns` is too large");
+        }
+        p.positive("grains.crystal.radius", c.radius);
+    }
+    p.0
+}
+
+fn material(m: &Material, p: &mut Problems) {
+    let (needed, needed_what, other) = match m.law {
+        LawKind::Linear => (
+            ("normal_stiffness", m.normal_stiffness),
+            "the linear law needs `normal_stiffness` > 0 [N/m]",
+            ("shear_modulus", m.shear_modulus),
+        ),
+        LawKind::Hertz => (
+            ("shear_modulus", m.shear_modulus),
+            "the Hertz law needs `shear_modulus` > 0 [Pa]",
+            ("normal_stiffness", m.normal_stiffness),
+        ),
+    };
+    let key = format!("material.{}", needed.0);
+    match needed.1 {
+        Some(v) => p.positive(&key, v),
+        None => p.push(key, needed_what),
+    }
+    if let Some(v) = other.1 {
+        p.finite(&format!("material.{}", other.0), v);
+    }
+    if !(m.poisson.is_finite() && (0.0..0.5).contains(&m.poisson)) {
+        p.push(
+            "material.poisson",
+            format!("must be in [0, 0.5), not {}", m.poisson),
+        );
+    }
+    p.friction("material.friction", m.friction);
+    p.non_negative("material.cohesion", m.cohesion);
+    if m.law == LawKind::Hertz {
+        if m.cohesion > 0.0 {
+            p.push(
+                "material.cohesion",
+                "cohesion needs the linear law (`law = \"linear\"`); Hertz contacts have no bonds",
+            );
+        }
+        if m.bonded {
+            p.push(
+                "material.bonded",
+                "bonds need the linear law (`law = \"linear\"`); Hertz contacts have no bonds",
+            );
+        }
+    }
+    if let Some(d) = m.depth {
+        p.positive("material.depth", d);
+    }
+}
+
+/// Checks `box` and `[[walls]]`; returns every wall name with its control.
+fn walls(scene: &Scene, p: &mut Problems) -> BTreeMap<String, WallControl> {
+    let mut known = BTreeMap::new();
+    if let Some(b) = &scene.wall_box {
+        p.friction("box.friction", b.friction);
+        p.finite("box.stress", b.stress);
+        for (i, side) in b.stress_controlled.iter().enumerate() {
+            let key = format!("box.stress_controlled[{i}]");
+            if !BOX_SIDES.contains(&side.as_str()) {
+                p.push(
+                    key,
+                    format!(
+                        "`{side}` is not a side of the box: use `bottom`, `right`, `top` or `left`"
+                    ),
+                );
+            } else if b.stress_controlled[..i].contains(side) {
+                p.push(key, format!("`{side}` is listed twice"));
+            }
+        }
+        for side in BOX_SIDES {
+            let control = if b.stress_controlled.iter().any(|s| s == side) {
+                WallControl::Stress
+            } else {
+                WallControl::Displacement
+            };
+            known.insert(side.to_string(), control);
+        }
+    }
+    for (i, w) in scene.walls.iter().enumerate() {
+        let at = format!("walls[{i}]");
+        if w.name.trim().is_empty() {
+            p.push(format!("{at}.name"), "must not be empty");
+        } else if known.contains_key(&w.name) {
+            let why = if scene.wall_box.is_some() && BOX_SIDES.contains(&w.name.as_str()) {
+                format!(
+                    "`{}` is already a side of `box`: wall names must be unique",
+                    w.name
+                )
+            } else {
+                format!(
+                    "another wall is already named `{}`: wall names must be unique",
+                    w.name
+                )
+            };
+            p.push(format!("{at}.name"), why);
+        } else {
+            known.insert(w.name.clone(), w.control);
+        }
+        for (j, &v) in w.point.iter().enumerate() {
+            p.finite(&format!("{at}.point[{j}]"), v);
+        }
+        let mut normal_ok = true;
+        for (j, &v) in w.normal.iter().enumerate() {
+            normal_ok &= p.finite(&format!("{at}.normal[{j}]"), v);
+        }
+        if normal_ok && w.normal[0].hypot(w.normal[1]) == 0.0 {
+            p.push(
+                format!("{at}.normal"),
+                "must not be zero: it is the direction from the wall into the sample",
+            );
+        }
+        p.friction(&format!("{at}.friction"), w.friction);
+        p.finite(&format!("{at}.stress"), w.stress);
+        if let Some(l) = w.length {
+            p.positive(&format!("{at}.length"), l);
+        }
+    }
+    known
+}
+
+fn stages(scene: &Scene, walls: &BTreeMap<String, WallControl>, p: &mut Problems) {
+    for (i, s) in scene.stages.iter().enumerate() {
+        let at = format!("stages[{i}]");
+        if s.increments == 0 {
+            p.push(format!("{at}.increments"), "must be at least 1");
+        }
+        for (name, &v) in &s.stress {
+            let key = child_key(&format!("{at}.stress"), name);
+            match walls.get(name) {
+                None => p.push(key, no_wall(name, walls)),
+                Some(WallControl::Displacement) => p.push(
+                    key,
+                    format!(
+                        "wall `{name}` is displacement-controlled: move it under `displacement`, \
+                         or make it stress-controlled (`box.stress_controlled` for a box side, \
+                         `control = \"stress\"` for a `[[walls]]` wall)"
+                    ),
+                ),
+                Some(WallControl::Stress) => {
+                    p.finite(&key, v);
+                }
+            }
+        }
+        for (name, &v) in &s.displacement {
+            let key = child_key(&format!("{at}.displacement"), name);
+            match walls.get(name) {
+                None => p.push(key, no_wall(name, walls)),
+                Some(WallControl::Stress) => p.push(
+                    key,
+                    format!(
+                        "wall `{name}` is stress-controlled: load it under `stress`, or make it \
+                         displacement-controlled"
+                    ),
+                ),
+                Some(WallControl::Displacement) => {
+                    p.finite(&key, v);
+                }
+            }
+        }
+        for (name, &v) in &s.shear {
+            let key = child_key(&format!("{at}.shear"), name);
+            if walls.contains_key(name) {
+                p.finite(&key, v);
+            } else {
+                p.push(key, no_wall(name, walls));
+            }
+        }
+    }
+    if scene.stages.is_empty() {
+        p.push(
+            "stages",
+            "the scene has no load stages, so there is nothing to do: add at least one \
+             `[[stages]]` table with `increments` and the stresses or displacements to apply",
+        );
+    }
+}
+
+fn no_wall(name: &str, walls: &BTreeMap<String, WallControl>) -> String {
+    if walls.is_empty() {
+        format!(
+            "there is no wall named `{name}`: the scene has no walls (add `[box]` or `[[walls]]`)"
+        )
+    } else {
+        let names: Vec<String> = walls.keys().map(|n| format!("`{n}`")).collect();
+        format!(
+            "there is no wall named `{name}`; the walls are {}",
+            names.join(", ")
+        )
+    }
+}
+
+/// Problems found so far, with the common checks.
+#[derive(Default)]
+struct Problems(Vec<(String, String)>);
+
+impl Problems {
+    fn push(&mut self, key: impl Into<String>, message: impl Into<String>) {
+        self.0.push((key.into(), message.into()));
+    }
+
+    /// NaN and infinity are valid TOML (`nan`, `inf`) but never a valid input here.
+    fn finite(&mut self, key: &str, v: f64) -> bool {
+        if !v.is_finite() {
+            self.push(key, format!("must be a finite number, not {v}"));
+        }
+        v.is_finite()
+    }
+
+    fn positive(&mut self, key: &str, v: f64) {
+        if !(v.is_finite() && v > 0.0) {
+            self.push(key, format!("must be a finite number > 0, not {v}"));
+        }
+    }
+
+    fn non_negative(&mut self, key: &str, v: f64) {
+        if !(v.is_finite() && v >= 0.0) {
+            self.push(key, format!("must be a finite number >= 0, not {v}"));
+        }
+    }
+
+    fn friction(&mut self, key: &str, f: Friction) {
+        if let Friction::Coefficient(v) = f {
+            if !(v.is_finite() && v >= 0.0) {
+                self.push(
+                    key,
+                    format!(
+                        "must be a finite coefficient >= 0 (or \"infinite\" for no slip), not {v}"
+                    ),
+                );
+            }
+        }
+    }
+}

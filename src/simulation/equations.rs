@@ -1,0 +1,255 @@
+//! The equilibrium equations of one load increment: residual `R = f_ext + f_contact` on every
+//! unknown, and the tangent `K = -dR/du`, assembled into the fixed pattern.
+
+use crate::assembly::{contact_block, DofMap, Pattern};
+use crate::contact::{kinematics, Configuration, Contact, ContactLaw, Kinematics, SlipTangent};
+use crate::geometry::{GrainSet, WallSet};
+use crate::solver::stats::{secs, StageTimers};
+use crate::solver::Equations;
+use crate::NumericError;
+use std::time::Instant;
+
+/// What the load program does to the walls in one (sub-)increment.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LoadStep {
+    /// Normal move of each wall in this step [m] (prescribed walls only).
+    pub normal_move: Vec<f64>,
+    /// Move along each wall in this step [m].
+    pub slide: Vec<f64>,
+    /// Stress on each wall at the end of this step [Pa] (stress-controlled walls).
+    pub stress: Vec<f64>,
+}
+
+impl LoadStep {
+    /// The step split in two halves, the stresses passing through the midpoint from `from`.
+    pub fn halves(&self, from: &[f64]) -> (LoadStep, LoadStep) {
+        let half = LoadStep {
+            normal_move: self.normal_move.iter().map(|m| 0.5 * m).collect(),
+            slide: self.slide.iter().map(|m| 0.5 * m).collect(),
+            stress: self
+                .stress
+                .iter()
+                .zip(from)
+                .map(|(s, f)| 0.5 * (s + f))
+                .collect(),
+        };
+        let rest = LoadStep {
+            stress: self.stress.clone(),
+            ..half.clone()
+        };
+        (half, rest)
+    }
+}
+
+/// Everything one evaluation reads, and the contacts it updates (their trial responses).
+pub struct IncrementEquations<'a> {
+    /// Committed grains (start of the increment).
+    pub grains: &'a GrainSet,
+    /// Committed walls.
+    pub walls: &'a WallSet,
+    /// Contacts: history read, trial response written.
+    pub contacts: &'a mut [Contact],
+    /// Friend-pair index of each contact (its block in the pattern).
+    pub pair_index: &'a [usize],
+    /// The wall program of this step.
+    pub step: &'a LoadStep,
+    /// Unknowns.
+    pub dofs: &'a DofMap,
+    /// Pattern and slot maps.
+    pub pattern: &'a Pattern,
+    /// The contact law.
+    pub law: &'a dyn ContactLaw,
+    /// Slip tangent.
+    pub slip_tangent: SlipTangent,
+    /// Whether the tangent must be symmetric (Cholesky).
+    pub symmetric: bool,
+    /// Depth `D` [m].
+    pub depth: f64,
+    /// Mean radius [m]: scales moments and rotations in the norms.
+    pub r_mean: f64,
+    /// Current configuration (workspace).
+    pub q: &'a mut Configuration,
+    /// Contact kinematics (workspace).
+    pub kin: &'a mut Vec<Kinematics>,
+    /// Stage timers.
+    pub timers: &'a mut StageTimers,
+    /// Force scale of the last evaluation.
+    pub f_ref: f64,
+    /// Contact stiffness to regularise with when the tangent has none.
+    pub stiffness_hint: f64,
+}
+
+impl IncrementEquations<'_> {
+    /// Positions, rotations and wall lines for increment displacements `u`.
+    pub fn configure(&mut self, u: &[f64]) {
+        let per = self.dofs.per_grain;
+        for i in 0..self.grains.len() {
+            let b = i * per;
+            let d = [u[b], u[b + 1]];
+            let p = self.grains.position[i];
+            self.q.position[i] = [p[0] + d[0], p[1] + d[1]];
+            self.q.displacement[i] = d;
+            self.q.rotation[i] = if per == 3 { u[b + 2] } else { 0.0 };
+        }
+        for (w, wall) in self.walls.walls.iter().enumerate() {
+            let normal_move = match self.dofs.wall[w] {
+                Some(dof) => u[dof],
+                None => self.step.normal_move[w],
+            };
+            let t = wall.tangent();
+            let s = self.step.slide[w];
+            self.q.wall_line[w] = wall.offset + wall.position + normal_move;
+            self.q.wall_displacement[w] = [
+                normal_move * wall.normal[0] + s * t[0],
+                normal_move * wall.normal[1] + s * t[1],
+            ];
+        }
+    }
+
+    /// Kinematics and the return map of every contact, in the configuration of `u`.
+    pub fn update_contacts(&mut self, u: &[f64]) -> Result<(), NumericError> {
+        let start = Instant::now();
+        self.configure(u);
+        self.kin.clear();
+        for c in self.contacts.iter_mut() {
+            let k = kinematics(c.pair, self.grains, self.walls, self.q);
+            c.overlap = k.overlap;
+            c.shear_increment = k.shear_increment - c.shear_offset;
+            c.response = self.law.respond(
+                &c.params,
+                c.bonded,
+                c.overlap,
+                c.shear_force0,
+                c.shear_increment,
+                self.slip_tangent,
+            );
+            if !(c.response.normal_force.is_finite() && c.response.shear_force.is_finite()) {
+                return Err(NumericError::NotFinite {
+                    what: "contact force",
+                    place: format!("contact {:?}-{}", c.pair.a, c.pair.b),
+                });
+            }
+            self.kin.push(k);
+        }
+        self.timers.return_map += secs(start);
+        Ok(())
+    }
+
+    /// Current loaded length of wall `w`.
+    fn wall_length(&self, w: usize) -> f64 {
+        match self.walls.walls[w].length {
+            Some(l) => l,
+            None => match self.walls.span_walls(w) {
+                Some((a, b)) => -(self.q.wall_line[a] + self.q.wall_line[b]),
+                None => 0.0,
+            },
+        }
+    }
+}
+
+impl Equations for IncrementEquations<'_> {
+    fn evaluate(
+        &mut self,
+        u: &[f64],
+        residual: &mut [f64],
+        mut tangent: Option<&mut [f64]>,
+    ) -> Result<(), NumericError> {
+        self.update_contacts(u)?;
+        let start = Instant::now();
+        residual.iter_mut().for_each(|r| *r = 0.0);
+        if let Some(t) = tangent.as_deref_mut() {
+            t.iter_mut().for_each(|v| *v = 0.0);
+        }
+        let mut sum_fn = 0.0;
+        for (idx, c) in self.contacts.iter().enumerate() {
+            sum_fn += c.response.normal_force.abs();
+            let p = self.pair_index[idx];
+            let map = self.dofs.pair_map(c.pair, self.walls);
+            let block = contact_block(&self.kin[idx], &c.response, &map, self.symmetric);
+            for a in 0..map.len {
+                residual[map.dofs[a]] += block.force[a];
+            }
+            if let Some(t) = tangent.as_deref_mut() {
+                let slots = self.pattern.pair_slots(p);
+                for a in 0..map.len {
+                    for b in 0..map.len {
+                        t[slots[a * map.len + b]] += block.stiffness[a][b];
+                    }
+                }
+            }
+        }
+        // Stress-controlled walls: pushed into the sample by stress * length * depth, the
+        // length following the walls that bound it (a follower load).
+        let mut sum_ext = 0.0;
+        for (w, wall) in self.walls.walls.iter().enumerate() {
+            if let Some(dof) = self.dofs.wall[w] {
+                let sigma = self.step.stress[w];
+                let load = sigma * self.wall_length(w) * self.depth;
+                residual[dof] += load;
+                sum_ext += load.abs();
+                if let (Some(t), false, None) = (tangent.as_deref_mut(), self.symmetric, wall.length)
+                {
+                    // dL/d(position of a span wall) = -1, so K = -dR/du = sigma * D.
+                    for &(row, _col, slot) in self.pattern.couplings.iter().filter(|c| c.0 == dof) {
+                        debug_assert_eq!(row, dof);
+                        t[slot] += sigma * self.depth;
+                    }
+                }
+            }
+        }
+        let n_c = self.contacts.len().max(1) as f64;
+        let n_w = self.dofs.wall.iter().flatten().count().max(1) as f64;
+        self.f_ref = if sum_fn > 0.0 { sum_fn / n_c } else { sum_ext / n_w };
+        if let Some(bad) = residual.iter().position(|r| !r.is_finite()) {
+            return Err(NumericError::NotFinite {
+                what: "residual",
+                place: match self.dofs.owner(bad) {
+                    Some(g) => format!("grain {g}"),
+                    None => format!("wall unknown {bad}"),
+                },
+            });
+        }
+        self.timers.assembly += secs(start);
+        Ok(())
+    }
+
+    fn residual_norm(&self, residual: &[f64]) -> (f64, usize, f64) {
+        let per = self.dofs.per_grain;
+        let scale = if self.f_ref > 0.0 { self.f_ref } else { 1.0 };
+        let (mut inf, mut worst, mut sq) = (0.0f64, 0usize, 0.0);
+        for (k, r) in residual.iter().enumerate() {
+            let v = match self.dofs.owner(k) {
+                Some(_) if per == 3 && k % 3 == 2 => r.abs() / self.r_mean,
+                _ => r.abs(),
+            } / scale;
+            sq += v * v;
+            if v > inf {
+                inf = v;
+                worst = self.dofs.owner(k).unwrap_or(worst);
+            }
+        }
+        (inf, worst, sq.sqrt())
+    }
+
+    fn unit_stiffness(&self, dof: usize) -> f64 {
+        match self.dofs.owner(dof) {
+            Some(_) if self.dofs.per_grain == 3 && dof % 3 == 2 => self.r_mean * self.r_mean,
+            _ => 1.0,
+        }
+    }
+
+    fn stiffness_hint(&self) -> f64 {
+        self.stiffness_hint
+    }
+
+    fn step_norm(&self, du: &[f64]) -> f64 {
+        let per = self.dofs.per_grain;
+        du.iter()
+            .enumerate()
+            .map(|(k, d)| match self.dofs.owner(k) {
+                Some(_) if per == 3 && k % 3 == 2 => d.abs(),
+                _ => d.abs() / self.r_mean,
+            })
+            .fold(0.0, f64::max)
+    }
+}

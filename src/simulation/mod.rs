@@ -1,0 +1,556 @@
+//! A simulation: a scene turned into grains, walls, contacts and a load program, advanced one
+//! load increment at a time by the global solver.
+
+mod equations;
+mod setup;
+
+pub use equations::{IncrementEquations, LoadStep};
+pub use setup::{MaterialModel, StageProgram};
+
+use crate::assembly::{DofMap, Pattern};
+use crate::contact::{
+    kinematics, BreakMode, BrokenBond, Configuration, Contact, ContactLaw, Kinematics,
+};
+use crate::geometry::{FriendSet, GrainSet, Side, WallControl};
+use crate::measure::measure;
+use crate::solver::newton::{self, NewtonSettings, SystemMatrix};
+use crate::solver::stats::secs;
+use crate::solver::{Equations, LinearKind, LinearSolver, SolverConfig, SolverStats};
+use crate::state::{IncrementReport, State};
+use crate::NumericError;
+use std::time::Instant;
+
+/// A running simulation: its state, its settings, and the workspace of the solver.
+pub struct Simulation {
+    /// Scene name.
+    pub name: String,
+    /// How it is solved.
+    pub config: SolverConfig,
+    /// Contact properties of the material and the walls.
+    pub material: MaterialModel,
+    /// Depth `D` [m].
+    pub depth: f64,
+    /// The load program.
+    pub stages: Vec<StageProgram>,
+    /// Committed state.
+    pub state: State,
+    /// Timers and counters.
+    pub stats: SolverStats,
+    /// Newton residual history of the last solve (relative residuals, one per iteration).
+    pub last_residuals: Vec<f64>,
+    law: Box<dyn ContactLaw>,
+    r_mean: f64,
+    dofs: DofMap,
+    friends: FriendSet,
+    pattern: Pattern,
+    values: Vec<f64>,
+    linear: LinearSolver,
+    q: Configuration,
+    kin: Vec<Kinematics>,
+    pair_index: Vec<usize>,
+}
+
+/// What one topology pass changed.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+struct TopologyChange {
+    made: usize,
+    lost: usize,
+    broken: usize,
+}
+
+impl TopologyChange {
+    fn any(&self) -> bool {
+        self.made + self.lost + self.broken > 0
+    }
+}
+
+impl Simulation {
+    /// A simulation from a committed state (a fresh one from [`setup`], or one read back to
+    /// resume). The workspace is rebuilt: friends lists from the state's reference positions,
+    /// so the pattern is the one the interrupted run had.
+    pub fn from_state(
+        name: String,
+        config: SolverConfig,
+        material: MaterialModel,
+        depth: f64,
+        stages: Vec<StageProgram>,
+        state: State,
+    ) -> Result<Simulation, NumericError> {
+        let law = material.law();
+        let r_mean = state.grains.mean_radius();
+        let dofs = DofMap::new(
+            state.grains.len(),
+            material.fixed_rotations,
+            &state.walls,
+        );
+        let mut sim = Simulation {
+            name,
+            linear: LinearSolver::new(config.linear),
+            config,
+            material,
+            depth,
+            stages,
+            stats: SolverStats::default(),
+            last_residuals: Vec::new(),
+            law,
+            r_mean,
+            q: Configuration::at_rest(&state.grains, &state.walls),
+            kin: Vec::new(),
+            pair_index: Vec::new(),
+            pattern: Pattern::build(
+                &FriendSet {
+                    pairs: vec![],
+                    reference: vec![],
+                    wall_reference: vec![],
+                    skin: 0.0,
+                },
+                &dofs,
+                &state.walls,
+            ),
+            friends: FriendSet {
+                pairs: vec![],
+                reference: vec![],
+                wall_reference: vec![],
+                skin: 0.0,
+            },
+            dofs,
+            values: Vec::new(),
+            state,
+        };
+        let mut at_reference = sim.state.grains.clone();
+        at_reference.position = sim.state.friends_reference.clone();
+        let mut walls_at_reference = sim.state.walls.clone();
+        for (w, r) in walls_at_reference
+            .walls
+            .iter_mut()
+            .zip(&sim.state.friends_wall_reference)
+        {
+            w.position = r[0];
+            w.slide = r[1];
+        }
+        sim.rebuild_friends(&at_reference, &walls_at_reference)?;
+        Ok(sim)
+    }
+
+    /// Whether every stage of the load program is done.
+    pub fn is_finished(&self) -> bool {
+        self.state.stage >= self.stages.len()
+    }
+
+    /// Total increments of the load program.
+    pub fn total_increments(&self) -> usize {
+        self.stages.iter().map(|s| s.increments).sum()
+    }
+
+    /// Mean grain radius [m].
+    pub fn mean_radius(&self) -> f64 {
+        self.r_mean
+    }
+
+    /// The unknowns of this scene.
+    pub fn dofs(&self) -> &DofMap {
+        &self.dofs
+    }
+
+    /// Drop the numeric factorisation, so the next increment starts from a fresh one. Called
+    /// when the state is written: a run resumed from there then repeats the same arithmetic.
+    pub fn refresh_factorisation(&mut self) {
+        self.linear.invalidate();
+    }
+
+    /// One load increment, as the pipeline reads: apply the increment, then solve it (Newton
+    /// with topology passes, halving it when that fails), commit, measure.
+    pub fn run_increment(&mut self) -> Result<IncrementReport, NumericError> {
+        let mut report = IncrementReport {
+            increment: self.state.increment + 1,
+            stage: self.state.stage,
+            ..Default::default()
+        };
+        // Apply the increment: the wall moves and stresses of the next step of the stage.
+        let step = self.next_load_step();
+        // Solve: Newton + return map + topology, with cut-back.
+        self.advance(&step, 0, &mut report)?;
+        // Advance the load program.
+        self.state.increment += 1;
+        self.state.stage_increment += 1;
+        if self.state.stage_increment == self.stages[self.state.stage].increments {
+            self.state.stage += 1;
+            self.state.stage_increment = 0;
+        }
+        self.stats.counters.increments += 1;
+        // Measure.
+        report.measurements = measure(
+            &self.state.grains,
+            &self.state.walls,
+            &self.state.contacts,
+            self.depth,
+        );
+        Ok(report)
+    }
+
+    /// The next increment of the current stage: equal wall moves, and stresses moving in equal
+    /// steps from where they are to the stage's targets.
+    fn next_load_step(&self) -> LoadStep {
+        let stage = &self.stages[self.state.stage];
+        let left = (stage.increments - self.state.stage_increment) as f64;
+        let n = stage.increments as f64;
+        let walls = &self.state.walls.walls;
+        LoadStep {
+            normal_move: stage.normal_move.iter().map(|m| m / n).collect(),
+            slide: stage.slide.iter().map(|m| m / n).collect(),
+            stress: walls
+                .iter()
+                .zip(&stage.stress)
+                .map(|(w, target)| match target {
+                    Some(t) => w.stress + (t - w.stress) / left,
+                    None => w.stress,
+                })
+                .collect(),
+        }
+    }
+
+    /// Solve a step and commit it; on failure restore the history and solve it as two halves,
+    /// down to `max_cuts` halvings.
+    fn advance(
+        &mut self,
+        step: &LoadStep,
+        depth: u32,
+        report: &mut IncrementReport,
+    ) -> Result<(), NumericError> {
+        let backup = self.state.contacts.clone();
+        match self.solve_step(step, report) {
+            Ok((u, change)) => {
+                report.contacts_made += change.made;
+                report.contacts_lost += change.lost;
+                report.bonds_broken += change.broken;
+                self.commit(step, &u);
+                Ok(())
+            }
+            Err(err) => {
+                self.state.contacts = backup;
+                self.restore_friends()?;
+                if depth >= self.config.max_cuts {
+                    return Err(match err {
+                        NumericError::NotConverged {
+                            increment,
+                            residual,
+                            worst_grain,
+                            ..
+                        } => NumericError::NotConverged {
+                            increment,
+                            residual,
+                            worst_grain,
+                            cuts: depth,
+                        },
+                        other => other,
+                    });
+                }
+                report.cuts += 1;
+                self.stats.counters.cuts += 1;
+                let from: Vec<f64> = self.state.walls.walls.iter().map(|w| w.stress).collect();
+                let (first, second) = step.halves(&from);
+                self.advance(&first, depth + 1, report)?;
+                self.advance(&second, depth + 1, report)
+            }
+        }
+    }
+
+    /// Newton passes until the contact topology stops changing.
+    fn solve_step(
+        &mut self,
+        step: &LoadStep,
+        report: &mut IncrementReport,
+    ) -> Result<(Vec<f64>, TopologyChange), NumericError> {
+        let mut u = vec![0.0; self.dofs.len];
+        let mut total = TopologyChange::default();
+        for _pass in 0..self.config.max_topology_passes {
+            let outcome = self.newton(step, &mut u)?;
+            report.newton_iterations += outcome.iterations;
+            report.residual = outcome.residual;
+            self.last_residuals = outcome.history;
+            if !outcome.converged {
+                return Err(NumericError::NotConverged {
+                    increment: self.state.increment + 1,
+                    residual: outcome.residual,
+                    worst_grain: outcome.worst_grain,
+                    cuts: 0,
+                });
+            }
+            report.topology_passes += 1;
+            self.stats.counters.topology_passes += 1;
+            let change = self.update_topology(step, &u)?;
+            total.made += change.made;
+            total.lost += change.lost;
+            total.broken += change.broken;
+            if !change.any() {
+                return Ok((u, total));
+            }
+        }
+        // The contact set keeps flipping between passes (chatter): cut the increment.
+        Err(NumericError::NotConverged {
+            increment: self.state.increment + 1,
+            residual: report.residual,
+            worst_grain: 0,
+            cuts: 0,
+        })
+    }
+
+    fn equations<'a>(&'a mut self, step: &'a LoadStep) -> IncrementEquations<'a> {
+        IncrementEquations {
+            grains: &self.state.grains,
+            walls: &self.state.walls,
+            contacts: &mut self.state.contacts.contacts,
+            pair_index: &self.pair_index,
+            step,
+            dofs: &self.dofs,
+            pattern: &self.pattern,
+            law: self.law.as_ref(),
+            slip_tangent: self.config.slip_tangent,
+            symmetric: self.config.linear == LinearKind::Cholesky,
+            depth: self.depth,
+            r_mean: self.r_mean,
+            q: &mut self.q,
+            kin: &mut self.kin,
+            timers: &mut self.stats.timers,
+            f_ref: 0.0,
+            stiffness_hint: self.material.stiffness_hint(self.r_mean),
+        }
+    }
+
+    fn newton(
+        &mut self,
+        step: &LoadStep,
+        u: &mut [f64],
+    ) -> Result<newton::NewtonOutcome, NumericError> {
+        let settings = NewtonSettings {
+            tolerance: self.config.tolerance,
+            displacement_tolerance: self.config.displacement_tolerance,
+            max_iterations: self.config.max_iterations,
+            line_search: self.config.line_search,
+            lambda_min: self.config.lambda_min,
+            reuse_factorisation: self.material.is_linear(),
+            max_step: 0.5 * self.config.skin,
+        };
+        let mut values = std::mem::take(&mut self.values);
+        let mut linear = std::mem::replace(&mut self.linear, LinearSolver::new(self.config.linear));
+        let mut stats = self.stats;
+        let symbolic = self.pattern.symbolic.clone();
+        let diagonal = self.pattern.diagonal.clone();
+        let result = {
+            let mut eq = self.equations(step);
+            newton::solve(
+                &mut eq,
+                SystemMatrix {
+                    symbolic: &symbolic,
+                    values: &mut values,
+                    diagonal: &diagonal,
+                },
+                &mut linear,
+                u,
+                &settings,
+                &mut stats,
+            )
+        };
+        // The equations kept their own timers; merge the linear-solver side back.
+        let timers = self.stats.timers;
+        self.stats = stats;
+        self.stats.timers.return_map = timers.return_map;
+        self.stats.timers.assembly = timers.assembly;
+        self.values = values;
+        self.linear = linear;
+        result
+    }
+
+    /// After Newton converged: break overloaded bonds, drop contacts that opened, rebuild the
+    /// friends lists if something moved too far, and make the contacts that closed.
+    fn update_topology(&mut self, step: &LoadStep, u: &[f64]) -> Result<TopologyChange, NumericError> {
+        // Responses at the converged iterate (a rejected line-search trial may be in place).
+        self.equations(step).update_contacts(u)?;
+        let start = Instant::now();
+        let mut change = TopologyChange::default();
+        let increment = self.state.increment + 1;
+        let set = &mut self.state.contacts;
+        for c in set.contacts.iter_mut().filter(|c| c.bonded) {
+            let (fn_, fs) = (c.response.normal_force, c.response.shear_force);
+            let ft = c.params.strength;
+            let shear_limit = if c.params.friction.is_infinite() {
+                f64::INFINITY
+            } else {
+                c.params.friction * fn_ + ft
+            };
+            let mode = if fn_ < -ft {
+                Some(BreakMode::Tension)
+            } else if fs.abs() > shear_limit {
+                Some(BreakMode::Shear)
+            } else {
+                None
+            };
+            if let Some(mode) = mode {
+                c.bonded = false;
+                c.broken = true;
+                set.broken_bonds.push(BrokenBond {
+                    pair: c.pair,
+                    increment,
+                    mode,
+                });
+                change.broken += 1;
+            }
+        }
+        let before = set.contacts.len();
+        set.contacts
+            .retain(|c| c.bonded || (c.overlap > 0.0 && c.response.normal_force > 0.0));
+        change.lost = before - set.contacts.len();
+
+        // Friends lists: rebuilt around the current positions once anything moved half the skin.
+        let mut current = self.state.grains.clone();
+        current.position.clone_from(&self.q.position);
+        let mut walls_now = self.state.walls.clone();
+        for (w, wall) in walls_now.walls.iter_mut().enumerate() {
+            wall.position = self.q.wall_line[w] - wall.offset;
+            wall.slide += step.slide[w];
+        }
+        self.stats.timers.topology += secs(start);
+        if self.friends.is_stale(&current, &walls_now) {
+            self.rebuild_friends(&current, &walls_now)?;
+        }
+        let start = Instant::now();
+
+        // Contacts made: friend pairs that now overlap.
+        let mut merged = Vec::with_capacity(self.state.contacts.contacts.len());
+        let mut existing = std::mem::take(&mut self.state.contacts.contacts).into_iter().peekable();
+        for &pair in &self.friends.pairs {
+            if existing.peek().is_some_and(|c| c.pair == pair) {
+                merged.push(existing.next().expect("peeked"));
+                continue;
+            }
+            let k = kinematics(pair, &self.state.grains, &self.state.walls, &self.q);
+            if k.overlap > 0.0 {
+                let params = self.material.params(pair, &self.state.grains, &self.state.walls);
+                let mut c = Contact::new(pair, params, false);
+                c.shear_offset = k.shear_increment;
+                merged.push(c);
+                change.made += 1;
+            }
+        }
+        // Contacts outside the lists cannot happen (they are rebuilt before anything moves far
+        // enough), but a bond stretched past the skin would be one: keep it all the same.
+        merged.extend(existing);
+        merged.sort_by(|a, b| a.pair.cmp(&b.pair));
+        self.state.contacts.contacts = merged;
+        self.index_pairs()?;
+        self.stats.counters.contacts_made += change.made;
+        self.stats.counters.contacts_lost += change.lost;
+        self.stats.counters.bonds_broken += change.broken;
+        self.stats.timers.topology += secs(start);
+        Ok(change)
+    }
+
+    /// Friends lists around the given positions, with every current contact in them, and the
+    /// pattern and symbolic factorisation that go with them.
+    fn rebuild_friends(
+        &mut self,
+        grains: &GrainSet,
+        walls: &crate::geometry::WallSet,
+    ) -> Result<(), NumericError> {
+        let start = Instant::now();
+        let mut friends = FriendSet::build(grains, walls, self.config.skin * self.r_mean);
+        let mut missing: Vec<_> = self
+            .state
+            .contacts
+            .contacts
+            .iter()
+            .map(|c| c.pair)
+            .filter(|p| friends.pairs.binary_search(p).is_err())
+            .collect();
+        if !missing.is_empty() {
+            friends.pairs.append(&mut missing);
+            friends.pairs.sort();
+        }
+        self.state.friends_reference.clone_from(&friends.reference);
+        self.state.friends_wall_reference.clone_from(&friends.wall_reference);
+        self.friends = friends;
+        self.pattern = Pattern::build(&self.friends, &self.dofs, &self.state.walls);
+        self.values = vec![0.0; self.pattern.nnz()];
+        self.stats.counters.friends_rebuilds += 1;
+        self.stats.timers.detection += secs(start);
+        self.linear
+            .analyse(&self.pattern.symbolic, &mut self.stats)
+            .map_err(|e| NumericError::Singular { detail: e.0 })?;
+        self.index_pairs()
+    }
+
+    /// After a failed attempt: the friends lists must still hold every restored contact.
+    fn restore_friends(&mut self) -> Result<(), NumericError> {
+        if self.index_pairs().is_err() || self.friends.is_stale(&self.state.grains, &self.state.walls) {
+            let (g, w) = (self.state.grains.clone(), self.state.walls.clone());
+            self.rebuild_friends(&g, &w)?;
+        }
+        Ok(())
+    }
+
+    /// Each contact's index in the friends lists (its block of the pattern).
+    fn index_pairs(&mut self) -> Result<(), NumericError> {
+        self.pair_index.clear();
+        for c in &self.state.contacts.contacts {
+            match self.friends.pairs.binary_search(&c.pair) {
+                Ok(p) => self.pair_index.push(p),
+                Err(_) => {
+                    return Err(NumericError::NotFinite {
+                        what: "friends list",
+                        place: format!("contact {:?}-{} outside the lists", c.pair.a, c.pair.b),
+                    })
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Make the converged step the committed state.
+    fn commit(&mut self, step: &LoadStep, u: &[f64]) {
+        self.equations(step).configure(u);
+        let grains = &mut self.state.grains;
+        grains.displace(&self.q.displacement);
+        for (r, dr) in grains.rotation.iter_mut().zip(&self.q.rotation) {
+            *r += dr;
+        }
+        for (w, wall) in self.state.walls.walls.iter_mut().enumerate() {
+            wall.position += match self.dofs.wall[w] {
+                Some(dof) => u[dof],
+                None => step.normal_move[w],
+            };
+            wall.slide += step.slide[w];
+            if wall.control == WallControl::Stress {
+                wall.stress = step.stress[w];
+            }
+        }
+        self.state.contacts.commit();
+        self.q = Configuration::at_rest(&self.state.grains, &self.state.walls);
+    }
+
+    /// Largest force or moment imbalance of any grain, relative to the mean contact force, in
+    /// the committed state (moments divided by the mean radius).
+    pub fn equilibrium_error(&mut self) -> (f64, usize) {
+        let step = LoadStep {
+            normal_move: vec![0.0; self.state.walls.len()],
+            slide: vec![0.0; self.state.walls.len()],
+            stress: self.state.walls.walls.iter().map(|w| w.stress).collect(),
+        };
+        let u = vec![0.0; self.dofs.len];
+        let mut r = vec![0.0; self.dofs.len];
+        let mut eq = self.equations(&step);
+        if eq.evaluate(&u, &mut r, None).is_err() {
+            return (f64::INFINITY, 0);
+        }
+        let (rel, worst, _) = eq.residual_norm(&r);
+        // Evaluation overwrote the trial responses with the committed ones: same values.
+        (rel, worst)
+    }
+
+    /// The grains a contact side touches, for reports.
+    pub fn describe_side(side: Side) -> String {
+        match side {
+            Side::Grain(g) => format!("grain {g}"),
+            Side::Wall(w) => format!("wall {w}"),
+        }
+    }
+}

@@ -1,0 +1,314 @@
+//! From a scene to a simulation: walls (a box and/or explicit lines), the material's contact
+//! properties, the load program, and the first contact set.
+
+use super::Simulation;
+use crate::contact::{
+    hertz_stiffness, kappa, mean_radius, Contact, ContactLaw, ContactParams, ContactSet,
+    HertzMindlin, LinearCohesive,
+};
+use crate::geometry::{FriendSet, GrainSet, Pair, Side, Wall, WallControl, WallSet};
+use crate::scene::{CohesionRadius, LawKind, Scene};
+use crate::solver::SolverConfig;
+use crate::state::State;
+use crate::{Error, InputError};
+
+/// Contact properties of the grain material and the walls.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MaterialModel {
+    /// Which law.
+    pub law: LawKind,
+    /// `k_n` [N/m] (linear law).
+    pub normal_stiffness: f64,
+    /// `G_mu` [Pa] (Hertz law).
+    pub shear_modulus: f64,
+    /// `nu_mu`.
+    pub poisson: f64,
+    /// `f_gg`.
+    pub friction: f64,
+    /// `c_mu` [N/m^2].
+    pub cohesion: f64,
+    /// Radius product of the bond strength.
+    pub cohesion_radius: CohesionRadius,
+    /// Whether the contacts present at the start are cemented.
+    pub bonded: bool,
+    /// Whether grain rotations are held fixed.
+    pub fixed_rotations: bool,
+}
+
+impl MaterialModel {
+    /// The material of a scene.
+    pub fn from_scene(scene: &Scene) -> Self {
+        let m = &scene.material;
+        MaterialModel {
+            law: m.law,
+            normal_stiffness: m.normal_stiffness.unwrap_or(0.0),
+            shear_modulus: m.shear_modulus.unwrap_or(0.0),
+            poisson: m.poisson,
+            friction: m.friction.value(),
+            cohesion: m.cohesion,
+            cohesion_radius: m.cohesion_radius,
+            bonded: m.bonded,
+            fixed_rotations: m.fixed_rotations,
+        }
+    }
+
+    /// The law object.
+    pub fn law(&self) -> Box<dyn ContactLaw> {
+        match self.law {
+            LawKind::Linear => Box::new(LinearCohesive),
+            LawKind::Hertz => Box::new(HertzMindlin),
+        }
+    }
+
+    /// Whether the contact law is linear (a tangent that hardly changes between increments).
+    pub fn is_linear(&self) -> bool {
+        self.law == LawKind::Linear
+    }
+
+    /// A typical normal stiffness [N/m]: `k_n`, or the Hertz tangent at an overlap of a
+    /// thousandth of the radius.
+    pub fn stiffness_hint(&self, r_mean: f64) -> f64 {
+        match self.law {
+            LawKind::Linear => self.normal_stiffness,
+            LawKind::Hertz => {
+                let m = hertz_stiffness(r_mean, self.shear_modulus, self.poisson);
+                1.5 * m * (1e-3 * r_mean).sqrt()
+            }
+        }
+    }
+
+    /// Properties of a contact between the two sides of `pair`.
+    pub fn params(&self, pair: Pair, grains: &GrainSet, walls: &WallSet) -> ContactParams {
+        let rb = grains.radius[pair.b];
+        let (ra, friction) = match pair.a {
+            Side::Grain(a) => (Some(grains.radius[a]), self.friction),
+            Side::Wall(w) => (None, walls.walls[w].friction),
+        };
+        let rbar = mean_radius(rb, ra);
+        let stiffness = match self.law {
+            LawKind::Linear => self.normal_stiffness,
+            LawKind::Hertz => hertz_stiffness(rbar, self.shear_modulus, self.poisson),
+        };
+        let strength = match (ra, self.cohesion_radius) {
+            (None, _) => 0.0,
+            (Some(_), CohesionRadius::Mean) => self.cohesion * rbar * rbar,
+            (Some(ra), CohesionRadius::Product) => self.cohesion * ra * rb,
+        };
+        ContactParams {
+            stiffness,
+            kappa: kappa(self.poisson),
+            friction,
+            strength,
+        }
+    }
+}
+
+/// One stage of the load program, resolved to wall indices.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StageProgram {
+    /// Name for the log.
+    pub name: String,
+    /// Increments in the stage.
+    pub increments: usize,
+    /// Stress each wall reaches at the end of the stage (`None`: unchanged).
+    pub stress: Vec<Option<f64>>,
+    /// Normal move of each wall over the stage [m].
+    pub normal_move: Vec<f64>,
+    /// Move along each wall over the stage [m].
+    pub slide: Vec<f64>,
+}
+
+/// The walls of a scene: the four of `box` (bottom, right, top, left) on the grains' bounding
+/// box, then the explicit ones.
+pub fn build_walls(scene: &Scene, grains: &GrainSet, file: &str) -> Result<WallSet, InputError> {
+    let mut walls = Vec::new();
+    if let Some(b) = &scene.wall_box {
+        let [x0, y0, x1, y1] = grains.bounding_box();
+        let sides = [
+            ("bottom", [x0, y0], [0.0, 1.0]),
+            ("right", [x1, y0], [-1.0, 0.0]),
+            ("top", [x0, y1], [0.0, -1.0]),
+            ("left", [x0, y0], [1.0, 0.0]),
+        ];
+        for (name, point, normal) in sides {
+            let stress_side = b.stress_controlled.iter().any(|s| s == name);
+            walls.push(Wall {
+                name: name.into(),
+                normal,
+                offset: normal[0] * point[0] + normal[1] * point[1],
+                position: 0.0,
+                slide: 0.0,
+                control: if stress_side {
+                    WallControl::Stress
+                } else {
+                    WallControl::Displacement
+                },
+                stress: if stress_side { b.stress } else { 0.0 },
+                length: None,
+                friction: b.friction.value(),
+            });
+        }
+    }
+    for spec in &scene.walls {
+        let len = spec.normal[0].hypot(spec.normal[1]);
+        let normal = [spec.normal[0] / len, spec.normal[1] / len];
+        walls.push(Wall {
+            name: spec.name.clone(),
+            normal,
+            offset: normal[0] * spec.point[0] + normal[1] * spec.point[1],
+            position: 0.0,
+            slide: 0.0,
+            control: spec.control,
+            stress: spec.stress,
+            length: spec.length,
+            friction: spec.friction.value(),
+        });
+    }
+    let set = WallSet { walls };
+    for (w, wall) in set.walls.iter().enumerate() {
+        if wall.control == WallControl::Stress && set.length(w).is_none() {
+            return Err(InputError::new(
+                file,
+                format!(
+                    "stress-controlled wall `{}` needs a `length`, or two facing walls \
+                     perpendicular to it that bound it",
+                    wall.name
+                ),
+            )
+            .at_key("walls"));
+        }
+    }
+    Ok(set)
+}
+
+/// The load program with wall names resolved.
+pub fn build_stages(scene: &Scene, walls: &WallSet) -> Vec<StageProgram> {
+    let index = |name: &str| walls.walls.iter().position(|w| w.name == name);
+    scene
+        .stages
+        .iter()
+        .map(|s| {
+            let mut stage = StageProgram {
+                name: s.name.clone(),
+                increments: s.increments,
+                stress: vec![None; walls.len()],
+                normal_move: vec![0.0; walls.len()],
+                slide: vec![0.0; walls.len()],
+            };
+            for (name, v) in &s.stress {
+                if let Some(w) = index(name) {
+                    stage.stress[w] = Some(*v);
+                }
+            }
+            for (name, v) in &s.displacement {
+                if let Some(w) = index(name) {
+                    stage.normal_move[w] = *v;
+                }
+            }
+            for (name, v) in &s.shear {
+                if let Some(w) = index(name) {
+                    stage.slide[w] = *v;
+                }
+            }
+            stage
+        })
+        .collect()
+}
+
+/// Grains closer than this fraction of the mean radius count as touching at the start, so a
+/// crystal built at exact contact starts with its contacts.
+const TOUCH: f64 = 1e-9;
+
+/// The contacts of a fresh sample: every pair touching within [`TOUCH`], cemented when the
+/// material is bonded (grain-grain contacts only).
+pub fn initial_contacts(
+    material: &MaterialModel,
+    grains: &GrainSet,
+    walls: &WallSet,
+    skin: f64,
+) -> ContactSet {
+    let friends = FriendSet::build(grains, walls, skin);
+    let tolerance = TOUCH * grains.mean_radius();
+    let contacts = friends
+        .pairs
+        .iter()
+        .filter(|p| {
+            let gap = match p.a {
+                Side::Grain(a) => crate::geometry::gap_between(grains, a, p.b),
+                Side::Wall(w) => walls.walls[w].distance(grains.position[p.b]) - grains.radius[p.b],
+            };
+            gap <= tolerance
+        })
+        .map(|&p| {
+            let bonded = material.bonded && matches!(p.a, Side::Grain(_));
+            Contact::new(p, material.params(p, grains, walls), bonded)
+        })
+        .collect();
+    ContactSet {
+        contacts,
+        broken_bonds: Vec::new(),
+    }
+}
+
+impl Simulation {
+    /// A fresh simulation of `scene` with its grains, solved as `config` says. `file` names the
+    /// scene in errors.
+    pub fn new(
+        scene: &Scene,
+        grains: GrainSet,
+        config: SolverConfig,
+        file: &str,
+    ) -> Result<Simulation, Error> {
+        if grains.is_empty() {
+            return Err(InputError::new(file, "the scene has no grains").at_key("grains").into());
+        }
+        let walls = build_walls(scene, &grains, file)?;
+        let material = MaterialModel::from_scene(scene);
+        let depth = scene
+            .material
+            .depth
+            .unwrap_or_else(|| 2.0 * grains.mean_radius());
+        let stages = build_stages(scene, &walls);
+        let skin = config.skin * grains.mean_radius();
+        let contacts = initial_contacts(&material, &grains, &walls, skin);
+        let state = State {
+            increment: 0,
+            stage: 0,
+            stage_increment: 0,
+            friends_reference: grains.position.clone(),
+            friends_wall_reference: walls.walls.iter().map(|w| [w.position, w.slide]).collect(),
+            grains,
+            walls,
+            contacts,
+        };
+        Ok(Simulation::from_state(
+            scene.name.clone(),
+            config,
+            material,
+            depth,
+            stages,
+            state,
+        )?)
+    }
+}
+
+impl Simulation {
+    /// A simulation of `scene` continuing from a state read back from its result file.
+    pub fn resume(
+        scene: &Scene,
+        state: State,
+        depth: f64,
+        config: SolverConfig,
+    ) -> Result<Simulation, Error> {
+        let material = MaterialModel::from_scene(scene);
+        let stages = build_stages(scene, &state.walls);
+        Ok(Simulation::from_state(
+            scene.name.clone(),
+            config,
+            material,
+            depth,
+            stages,
+            state,
+        )?)
+    }
+}

@@ -1,0 +1,116 @@
+//! Solver settings: how a scene is solved, read from a file under `solvers/`. Plain data with
+//! documented defaults; [`SolverConfig::validate`] says what is out of range.
+
+use crate::contact::SlipTangent;
+use serde::{Deserialize, Serialize};
+
+/// Which sparse factorisation solves the Newton systems.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum LinearKind {
+    /// Supernodal Cholesky `L L^T` of the symmetric tangent (the default).
+    Cholesky,
+    /// Sparse LU of the full, unsymmetric consistent tangent (6-9x the cost).
+    Lu,
+}
+
+/// How a scene is solved.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct SolverConfig {
+    /// Sparse factorisation. Default: Cholesky.
+    #[serde(default = "default_linear")]
+    pub linear: LinearKind,
+    /// Tangent of Coulomb slip. Default: elasto-plastic (symmetric); LU wants consistent.
+    #[serde(default = "default_slip_tangent")]
+    pub slip_tangent: SlipTangent,
+    /// Equilibrium tolerance: `|R|_inf <= tolerance * F_ref`, `F_ref` the mean contact force.
+    /// Default 1e-8.
+    #[serde(default = "default_tolerance")]
+    pub tolerance: f64,
+    /// Step tolerance: `|du|_inf <= displacement_tolerance * r_mean`. Default 1e-8.
+    #[serde(default = "default_tolerance")]
+    pub displacement_tolerance: f64,
+    /// Newton iterations allowed per topology pass. Default 40.
+    #[serde(default = "default_max_iterations")]
+    pub max_iterations: usize,
+    /// Backtracking line search on `|R|` when a full step increases it. Default on.
+    #[serde(default = "yes")]
+    pub line_search: bool,
+    /// Topology passes allowed per increment before it counts as chatter. Default 30.
+    #[serde(default = "default_max_topology_passes")]
+    pub max_topology_passes: usize,
+    /// Times an increment may be halved before the run stops. Default 8.
+    #[serde(default = "default_max_cuts")]
+    pub max_cuts: u32,
+    /// Friends-list skin, in mean radii. Default 0.5.
+    #[serde(default = "default_skin")]
+    pub skin: f64,
+    /// Smallest Levenberg-Marquardt factor: `K + lambda diag(K)`; it keeps rattlers and free
+    /// rotations regular without changing the converged answer. Default 1e-10.
+    #[serde(default = "default_lambda_min")]
+    pub lambda_min: f64,
+}
+
+fn default_linear() -> LinearKind {
+    LinearKind::Cholesky
+}
+fn default_slip_tangent() -> SlipTangent {
+    SlipTangent::ElastoPlastic
+}
+fn default_tolerance() -> f64 {
+    1e-8
+}
+fn default_max_iterations() -> usize {
+    40
+}
+fn yes() -> bool {
+    true
+}
+fn default_max_topology_passes() -> usize {
+    30
+}
+fn default_max_cuts() -> u32 {
+    8
+}
+fn default_skin() -> f64 {
+    0.5
+}
+fn default_lambda_min() -> f64 {
+    1e-10
+}
+
+impl Default for SolverConfig {
+    fn default() -> Self {
+        toml::from_str("").expect("defaults parse")
+    }
+}
+
+impl SolverConfig {
+    /// Out-of-range settings, as (key, message) pairs.
+    pub fn validate(&self) -> Vec<(String, String)> {
+        let mut bad = Vec::new();
+        let mut positive = |key: &str, v: f64| {
+            if !(v.is_finite() && v > 0.0) {
+                bad.push((key.to_string(), format!("must be a finite number > 0, not {v}")));
+            }
+        };
+        positive("tolerance", self.tolerance);
+        positive("displacement_tolerance", self.displacement_tolerance);
+        positive("skin", self.skin);
+        positive("lambda_min", self.lambda_min);
+        if self.max_iterations == 0 {
+            bad.push(("max_iterations".into(), "must be at least 1".into()));
+        }
+        if self.max_topology_passes == 0 {
+            bad.push(("max_topology_passes".into(), "must be at least 1".into()));
+        }
+        if self.linear == LinearKind::Cholesky && self.slip_tangent == SlipTangent::Consistent {
+            bad.push((
+                "slip_tangent".into(),
+                "the consistent slip tangent is unsymmetric: it needs `linear = \"lu\"`".into(),
+            ));
+        }
+        bad
+    }
+}

@@ -1,0 +1,257 @@
+//! Newton's method on `R(u) = 0` for all unknowns at once, with backtracking line search on
+//! `|R|` and Levenberg-Marquardt regularisation of the step (`K + lambda D`, `D` the diagonal of
+//! `K` with a floor) for singular or indefinite tangents: rattlers, free rotations,
+//! just-touching Hertz contacts, buckling force chains. The regularisation changes the path,
+//! never the converged answer.
+//!
+//! Newton knows neither the physics (the [`Equations`]) nor how the linear systems are solved
+//! beyond the [`LinearSolver`] contract.
+
+use super::linear::LinearSolver;
+use super::stats::SolverStats;
+use crate::NumericError;
+use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
+
+/// A system of equations `R(u) = 0` with its tangent `K = -dR/du` in a fixed pattern.
+pub trait Equations {
+    /// Evaluate `R(u)` into `residual` and, when given, the tangent into `tangent` (the values
+    /// of the fixed pattern, already zeroed by the callee).
+    fn evaluate(
+        &mut self,
+        u: &[f64],
+        residual: &mut [f64],
+        tangent: Option<&mut [f64]>,
+    ) -> Result<(), NumericError>;
+
+    /// Convergence measure of a residual: `(|R|_inf / F_ref, worst grain, |R|_2 / F_ref)`.
+    fn residual_norm(&self, residual: &[f64]) -> (f64, usize, f64);
+
+    /// Size of a step in mean radii (rotations times the mean radius).
+    fn step_norm(&self, du: &[f64]) -> f64;
+
+    /// How the stiffness of each unknown scales: 1 for a translation, `r^2` for a rotation,
+    /// so one stiffness scale serves every row of the regularisation.
+    fn unit_stiffness(&self, dof: usize) -> f64;
+
+    /// A stiffness to regularise with when the tangent has none at all (a Hertz sample whose
+    /// contacts just touch).
+    fn stiffness_hint(&self) -> f64;
+}
+
+/// Settings of one Newton solve.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NewtonSettings {
+    /// `|R|_inf <= tolerance * F_ref`.
+    pub tolerance: f64,
+    /// `|du|_inf <= displacement_tolerance * r_mean`.
+    pub displacement_tolerance: f64,
+    /// Iterations allowed.
+    pub max_iterations: usize,
+    /// Backtrack when a full step increases `|R|`.
+    pub line_search: bool,
+    /// Smallest regularisation factor.
+    pub lambda_min: f64,
+    /// Keep the last factorisation while it contracts the residual well (chord steps): for
+    /// linear scenes, where the tangent hardly changes.
+    pub reuse_factorisation: bool,
+    /// Largest step, in mean radii: longer Newton steps are truncated to it (thesis 2.4), so no
+    /// grain jumps past contacts its friends lists cannot see.
+    pub max_step: f64,
+}
+
+/// How a Newton solve ended.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct NewtonOutcome {
+    /// Whether both tolerances were met.
+    pub converged: bool,
+    /// Iterations made.
+    pub iterations: usize,
+    /// Final relative residual.
+    pub residual: f64,
+    /// Final step norm (mean radii).
+    pub step: f64,
+    /// Grain with the largest residual.
+    pub worst_grain: usize,
+    /// Relative residual after each iteration (the first entry: before any step).
+    pub history: Vec<f64>,
+    /// Converged with the residual at its round-off floor: no step reduced it, and the Newton
+    /// step was already below the displacement tolerance.
+    pub at_roundoff: bool,
+}
+
+/// The matrix of the Newton systems: a fixed pattern, its values, and its diagonal slots.
+pub struct SystemMatrix<'a> {
+    /// Pattern (full storage).
+    pub symbolic: &'a SymbolicSparseColMat<usize>,
+    /// Values of the tangent, filled by [`Equations::evaluate`].
+    pub values: &'a mut Vec<f64>,
+    /// Value index of each diagonal entry.
+    pub diagonal: &'a [usize],
+}
+
+/// Solve `R(u) = 0` starting from `u`; `u` holds the last iterate on return.
+pub fn solve(
+    eq: &mut dyn Equations,
+    matrix: SystemMatrix<'_>,
+    linear: &mut LinearSolver,
+    u: &mut [f64],
+    settings: &NewtonSettings,
+    stats: &mut SolverStats,
+) -> Result<NewtonOutcome, NumericError> {
+    let n = u.len();
+    let SystemMatrix {
+        symbolic,
+        values,
+        diagonal,
+    } = matrix;
+    let mut residual = vec![0.0; n];
+    let mut trial_residual = vec![0.0; n];
+    let mut trial_values = vec![0.0; values.len()];
+    let mut du = vec![0.0; n];
+    let mut trial_u = vec![0.0; n];
+
+    eq.evaluate(u, &mut residual, Some(values))?;
+    let (mut rel, mut worst, mut merit) = eq.residual_norm(&residual);
+    let mut out = NewtonOutcome {
+        history: vec![rel],
+        ..Default::default()
+    };
+    let mut lambda = 0.0f64;
+    let mut last_step = 0.0;
+    // A factorisation kept from an earlier solve is trusted only as a chord.
+    let mut fresh_factor = false;
+    let mut chord = settings.reuse_factorisation && linear.is_factorized();
+
+    for iteration in 1..=settings.max_iterations {
+        if rel <= settings.tolerance && last_step <= settings.displacement_tolerance {
+            out.converged = true;
+            break;
+        }
+        out.iterations = iteration;
+        stats.counters.newton_iterations += 1;
+
+        let mut accepted = false;
+        for _attempt in 0..12 {
+            // Direction: K du = R, with the chord factorisation or a fresh, regularised one.
+            if chord {
+                stats.counters.factorisations_reused += 1;
+            } else {
+                let regularised = regularise(eq, values, diagonal, lambda.max(settings.lambda_min));
+                let a = SparseColMatRef::new(symbolic.as_ref(), &regularised);
+                if linear.factorize(a, stats).is_err() {
+                    lambda = (lambda * 100.0).max(1e-8);
+                    if lambda > 1e6 {
+                        return Err(NumericError::Singular {
+                            detail: format!("no factorisation up to lambda = {lambda:.1e}"),
+                        });
+                    }
+                    continue;
+                }
+                fresh_factor = true;
+            }
+            du.copy_from_slice(&residual);
+            linear.solve_in_place(&mut du, stats);
+            if du.iter().any(|v| !v.is_finite()) {
+                chord = false;
+                lambda = (lambda * 100.0).max(1e-8);
+                continue;
+            }
+
+            // Truncate long steps, then line search on |R|_2: halve the step while it does not
+            // decrease enough.
+            let length = eq.step_norm(&du);
+            if length > settings.max_step {
+                let shrink = settings.max_step / length;
+                du.iter_mut().for_each(|d| *d *= shrink);
+            }
+            let mut alpha = 1.0;
+            loop {
+                for k in 0..n {
+                    trial_u[k] = u[k] + alpha * du[k];
+                }
+                eq.evaluate(&trial_u, &mut trial_residual, Some(&mut trial_values))?;
+                let (t_rel, t_worst, t_merit) = eq.residual_norm(&trial_residual);
+                let good = t_merit.is_finite()
+                    && (t_merit <= (1.0 - 1e-4 * alpha) * merit || t_rel <= settings.tolerance);
+                // A chord step must also contract well, or the tangent is refreshed.
+                let contracts = !chord || t_merit <= 0.25 * merit || t_rel <= settings.tolerance;
+                if std::env::var_os("GS_DEBUG").is_some() { eprintln!("it {iteration} chord {chord} lambda {lambda:.1e} alpha {alpha} rel {rel:.3e} -> {t_rel:.3e} merit {merit:.3e} -> {t_merit:.3e} step {:.3e}", eq.step_norm(&du)); }
+                if good && contracts {
+                    u.copy_from_slice(&trial_u);
+                    std::mem::swap(&mut residual, &mut trial_residual);
+                    std::mem::swap(values, &mut trial_values);
+                    (rel, worst, merit) = (t_rel, t_worst, t_merit);
+                    last_step = alpha * eq.step_norm(&du);
+                    accepted = true;
+                    break;
+                }
+                if chord || !settings.line_search || alpha < 1.0 / 64.0 {
+                    break;
+                }
+                alpha *= 0.5;
+            }
+            if accepted {
+                if alpha == 1.0 {
+                    lambda *= 0.1;
+                    if lambda < settings.lambda_min {
+                        lambda = 0.0;
+                    }
+                }
+                break;
+            }
+            // No acceptable step along this direction. When even the fresh, unregularised step is
+            // below the displacement tolerance, the residual is at its round-off floor.
+            if !chord && lambda == 0.0 && eq.step_norm(&du) <= settings.displacement_tolerance {
+                out.at_roundoff = true;
+                break;
+            }
+            // Otherwise refresh the tangent, then regularise.
+            if chord {
+                chord = false;
+            } else {
+                lambda = (lambda * 10.0).max(1e-6);
+            }
+        }
+        if out.at_roundoff {
+            out.converged = true;
+            break;
+        }
+        if !accepted {
+            break;
+        }
+        chord = settings.reuse_factorisation && fresh_factor;
+        out.history.push(rel);
+    }
+    if !out.converged && rel <= settings.tolerance && last_step <= settings.displacement_tolerance {
+        out.converged = true;
+    }
+    out.residual = rel;
+    out.step = last_step;
+    out.worst_grain = worst;
+    Ok(out)
+}
+
+/// `K + lambda D` with `D_ii = max(|K_ii|, k u_i)`, `k` the mean stiffness of the rows that
+/// have one and `u_i` the unit of row `i`. A row without stiffness (a rattler, a rotation with
+/// only frictionless contacts, a just-touching Hertz contact) also gets `1e-6 k u_i`: its
+/// residual is zero or its step is truncated, so the answer does not change.
+fn regularise(eq: &dyn Equations, values: &[f64], diagonal: &[usize], lambda: f64) -> Vec<f64> {
+    let mut out = values.to_vec();
+    let (mut sum, mut count) = (0.0, 0usize);
+    for (dof, &s) in diagonal.iter().enumerate() {
+        if values[s] > 0.0 {
+            sum += values[s] / eq.unit_stiffness(dof);
+            count += 1;
+        }
+    }
+    let k = if count > 0 {
+        sum / count as f64
+    } else {
+        eq.stiffness_hint()
+    };
+    for (dof, &s) in diagonal.iter().enumerate() {
+        let unit = k * eq.unit_stiffness(dof);
+        out[s] += lambda * values[s].abs().max(unit) + if values[s] <= 0.0 { 1e-6 * unit } else { 0.0 };
+    }
+    out
+}

@@ -1,0 +1,494 @@
+//! The HDF5 result file: every state written reads back exactly, resume finds the last
+//! complete increment, bad files are input errors, and Python can read the layout.
+
+use grainstat::contact::{BreakMode, BrokenBond, Contact, ContactParams, ContactSet, Response};
+use grainstat::geometry::{GrainSet, Pair, Side, Wall, WallControl, WallSet};
+use grainstat::measure::Measurements;
+use grainstat::output::{info, read_increments, read_state, read_summary, ResultFile, RunHeader};
+use grainstat::solver::stats::SolverStats;
+use grainstat::state::{IncrementReport, State};
+use grainstat::Error;
+use std::path::Path;
+use std::sync::Mutex;
+
+/// One test at a time: a child process (the Python check) inherits the descriptors of files
+/// other test threads have open, and with them HDF5's file locks, until it exits.
+static SERIAL: Mutex<()> = Mutex::new(());
+
+fn serial() -> std::sync::MutexGuard<'static, ()> {
+    SERIAL.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+fn wall(name: &str, normal: [f64; 2], offset: f64) -> Wall {
+    Wall {
+        name: name.into(),
+        normal,
+        offset,
+        position: 0.0,
+        slide: 0.0,
+        control: WallControl::Displacement,
+        stress: 0.0,
+        length: None,
+        friction: 0.25,
+    }
+}
+
+fn walls() -> WallSet {
+    let mut top = wall("top", [0.0, -1.0], -2.0);
+    top.control = WallControl::Stress;
+    top.stress = 1.0e5;
+    let mut left = wall("left", [1.0, 0.0], 0.0);
+    left.friction = f64::INFINITY;
+    left.length = Some(2.0);
+    WallSet {
+        walls: vec![
+            wall("bottom", [0.0, 1.0], 0.0),
+            wall("right", [-1.0, 0.0], -2.0),
+            top,
+            left,
+        ],
+    }
+}
+
+fn params(friction: f64) -> ContactParams {
+    ContactParams {
+        stiffness: 1.0e8,
+        kappa: 0.9545454545454546,
+        friction,
+        strength: 12.5,
+    }
+}
+
+fn contact(pair: Pair, p: ContactParams, k: f64) -> Contact {
+    let shear = 0.1 * k - 3.0e-17;
+    Contact {
+        pair,
+        params: p,
+        bonded: false,
+        broken: false,
+        shear_force0: shear,
+        shear_displacement0: 1.0e-7 / 3.0 * k,
+        shear_offset: 0.0,
+        response: Response {
+            normal_force: 10.0 / 3.0 * k,
+            shear_force: shear,
+            sliding: false,
+            dfn_dn: 1.0e8,
+            dfs_dn: -2.5e-3 * k,
+            dfs_ds: 9.545454545454546e7,
+        },
+        overlap: 1.0e-8 * k + 5e-324,
+        shear_increment: 0.0,
+    }
+}
+
+/// A small state after increment `k`: grain-grain and wall contacts, a bonded contact, a
+/// broken one still touching, infinite friction and a broken-bond record.
+fn state(k: usize) -> State {
+    let kf = k as f64;
+    let position = vec![
+        [0.5, 0.5 + 1e-9 * kf],
+        [1.5 - 1e-10 / 3.0 * kf, 0.5],
+        [0.5, 1.5],
+        [1.5, 1.5 + std::f64::consts::PI * 1e-12 * kf],
+    ];
+    let mut grains = GrainSet::new(position.clone(), vec![0.5, 0.5, 0.4999, 0.5001]);
+    grains.rotation = vec![1e-3 * kf, -0.0, 2.0e-300, -1.0 / 7.0 * kf];
+    let mut walls = walls();
+    walls.walls[2].position = 1e-6 * kf;
+    walls.walls[2].stress = 1.0e5 + 1.0e3 * kf;
+    walls.walls[1].slide = -2e-7 * kf;
+
+    let mut contacts = vec![
+        contact(
+            Pair {
+                a: Side::Grain(0),
+                b: 1,
+            },
+            params(0.5),
+            kf,
+        ),
+        contact(
+            Pair {
+                a: Side::Grain(0),
+                b: 2,
+            },
+            params(f64::INFINITY),
+            kf + 1.0,
+        ),
+        contact(
+            Pair {
+                a: Side::Grain(1),
+                b: 3,
+            },
+            params(0.5),
+            kf + 2.0,
+        ),
+        contact(
+            Pair {
+                a: Side::Wall(0),
+                b: 0,
+            },
+            params(0.25),
+            kf + 3.0,
+        ),
+        contact(
+            Pair {
+                a: Side::Wall(3),
+                b: 2,
+            },
+            params(f64::INFINITY),
+            kf,
+        ),
+        contact(
+            Pair {
+                a: Side::Grain(2),
+                b: 3,
+            },
+            params(0.5),
+            kf + 4.0,
+        ),
+    ];
+    contacts[0].response.sliding = true;
+    contacts[2].bonded = true;
+    contacts[5].broken = true;
+    contacts[5].response.sliding = true;
+    let broken_bonds = vec![BrokenBond {
+        pair: Pair {
+            a: Side::Grain(2),
+            b: 3,
+        },
+        increment: 1,
+        mode: BreakMode::Shear,
+    }];
+    State {
+        increment: k,
+        stage: k / 2,
+        stage_increment: k % 2,
+        grains,
+        walls,
+        contacts: ContactSet {
+            contacts,
+            broken_bonds,
+        },
+        friends_reference: position,
+        friends_wall_reference: vec![[0.0, 0.0], [0.0, -1e-7], [1e-6, 0.0], [0.0, 0.0]],
+    }
+}
+
+fn report(s: &State) -> IncrementReport {
+    let kf = s.increment as f64;
+    IncrementReport {
+        increment: s.increment,
+        stage: s.stage,
+        measurements: Measurements {
+            wall_normal_force: vec![100.0 + kf, 50.0, 100.0 + kf, 50.0],
+            wall_shear_force: vec![0.0, 1.0, -1.0, kf],
+            wall_stress: vec![5.0e4 + kf, 2.5e4, 5.0e4 + kf, f64::NAN],
+            macro_stress: [[1.0e5 + kf, 3.0], [3.5, 2.0e5 - kf]],
+            volume: 4.0e-3,
+            grain_contacts: 4,
+            wall_contacts: 2,
+            contacts_per_grain: 2.0,
+            bonds: 1,
+            broken_bonds: 1,
+        },
+        residual: 1e-9 * kf,
+        newton_iterations: 3 + s.increment,
+        topology_passes: 2,
+        cuts: 0,
+        contacts_made: 1,
+        contacts_lost: 0,
+        bonds_broken: usize::from(s.increment == 1),
+    }
+}
+
+fn stats(k: usize) -> SolverStats {
+    let mut s = SolverStats::default();
+    s.timers.solve = 0.125 * k as f64;
+    s.timers.assembly = 0.5;
+    s.counters.increments = k;
+    s.counters.newton_iterations = 4 * k;
+    s
+}
+
+fn header(s: &State) -> RunHeader {
+    RunHeader {
+        scene_name: "tiny box".into(),
+        scene_text: "name = \"tiny box\"\n[material]\nlaw = \"linear\"\n".into(),
+        solver_text: "linear = \"cholesky\"\n".into(),
+        version: env!("CARGO_PKG_VERSION").into(),
+        depth: 1.0,
+        radius: s.grains.radius.clone(),
+        walls: RunHeader::walls_of(&s.walls),
+        fixed_rotations: false,
+        law: "linear".into(),
+    }
+}
+
+fn write_three(path: &Path) -> Vec<State> {
+    let states: Vec<State> = (1..=3).map(state).collect();
+    let mut file = ResultFile::create(path, &header(&states[0])).expect("create");
+    for s in &states {
+        file.write_increment(s, &report(s), &stats(s.increment))
+            .expect("write increment");
+    }
+    file.write_summary(&stats(3)).expect("summary");
+    states
+}
+
+fn history_increments(path: &Path) -> Vec<i64> {
+    let f = hdf5::File::open(path).expect("open");
+    f.dataset("history/increment")
+        .and_then(|d| d.read_raw::<i64>())
+        .expect("history")
+}
+
+#[test]
+fn every_increment_reads_back_exactly() {
+    let _serial = serial();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("sub/dir/run.h5");
+    let states = write_three(&path);
+    assert_eq!(read_increments(&path).unwrap(), vec![1, 2, 3]);
+    for s in &states {
+        let (h, back) = read_state(&path, s.increment).unwrap();
+        assert_eq!(h, header(s));
+        assert_eq!(&back, s);
+        // Bit for bit, signed zeros and subnormals included.
+        assert_eq!(back.grains.rotation[1].to_bits(), (-0.0f64).to_bits());
+    }
+    assert_eq!(read_summary(&path).unwrap(), Some(stats(3)));
+    assert_eq!(history_increments(&path), vec![1, 2, 3]);
+    assert!(matches!(read_state(&path, 7), Err(Error::Input(_))));
+
+    let text = info(&path).unwrap();
+    for needle in [
+        "tiny box",
+        "increments  3 written, 1 .. 3",
+        "top",
+        "macro stress",
+    ] {
+        assert!(text.contains(needle), "info lacks {needle:?}:\n{text}");
+    }
+}
+
+#[test]
+fn resume_takes_the_last_complete_increment() {
+    let _serial = serial();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("run.h5");
+    let states = write_three(&path);
+    {
+        let f = hdf5::File::open_rw(&path).unwrap();
+        f.group("increments/00000003")
+            .unwrap()
+            .delete_attr("complete")
+            .unwrap();
+    }
+    assert_eq!(read_increments(&path).unwrap(), vec![1, 2]);
+    let (mut file, h, resumed) = ResultFile::open_for_resume(&path).unwrap();
+    assert_eq!(h, header(&states[0]));
+    assert_eq!(resumed, states[1]);
+    assert_eq!(history_increments(&path), vec![1, 2]);
+
+    // Going on from there writes increment 3 again, as the uninterrupted run did.
+    let s = &states[2];
+    file.write_increment(s, &report(s), &stats(3)).unwrap();
+    file.close().unwrap();
+    assert_eq!(read_increments(&path).unwrap(), vec![1, 2, 3]);
+    assert_eq!(&read_state(&path, 3).unwrap().1, s);
+    assert_eq!(history_increments(&path), vec![1, 2, 3]);
+
+    // Rewriting an increment replaces it and its history rows.
+    let (mut file, _, _) = ResultFile::open_for_resume(&path).unwrap();
+    file.write_increment(&states[1], &report(&states[1]), &stats(2))
+        .unwrap();
+    drop(file);
+    assert_eq!(history_increments(&path), vec![1, 2]);
+    assert_eq!(&read_state(&path, 2).unwrap().1, &states[1]);
+}
+
+#[test]
+fn empty_and_large_sets_work() {
+    let _serial = serial();
+    let dir = tempfile::tempdir().unwrap();
+    // No contacts, no walls, no friends lists yet.
+    let path = dir.path().join("empty.h5");
+    let mut s = state(0);
+    s.contacts = ContactSet::default();
+    s.walls = WallSet::default();
+    s.friends_reference.clear();
+    s.friends_wall_reference.clear();
+    let mut r = report(&s);
+    r.measurements = Measurements::default();
+    let mut file = ResultFile::create(&path, &header(&s)).unwrap();
+    file.write_increment(&s, &r, &SolverStats::default())
+        .unwrap();
+    drop(file);
+    assert_eq!(read_state(&path, 0).unwrap().1, s);
+    assert!(info(&path).is_ok());
+
+    // Enough grains and contacts for chunked, compressed datasets.
+    let path = dir.path().join("large.h5");
+    let n = 1500;
+    let position: Vec<[f64; 2]> = (0..n)
+        .map(|i| [i as f64 * 1.0001, (i % 7) as f64 / 3.0])
+        .collect();
+    let mut s = state(5);
+    s.grains = GrainSet::new(position.clone(), vec![0.5; n]);
+    s.grains.rotation = (0..n).map(|i| (i as f64).sin() * 1e-3).collect();
+    s.contacts.contacts = (0..n - 1)
+        .map(|i| {
+            contact(
+                Pair {
+                    a: Side::Grain(i),
+                    b: i + 1,
+                },
+                params(0.5),
+                i as f64,
+            )
+        })
+        .collect();
+    s.contacts.contacts.push(contact(
+        Pair {
+            a: Side::Wall(1),
+            b: n - 1,
+        },
+        params(0.25),
+        1.0,
+    ));
+    s.friends_reference = position;
+    let mut file = ResultFile::create(&path, &header(&s)).unwrap();
+    file.write_increment(&s, &report(&s), &stats(5)).unwrap();
+    drop(file);
+    assert_eq!(read_state(&path, 5).unwrap().1, s);
+    let f = hdf5::File::open(&path).unwrap();
+    let pair = f.dataset("increments/00000005/contacts/pair").unwrap();
+    assert!(pair.is_chunked());
+    assert_eq!(pair.shape(), vec![n, 2]);
+}
+
+#[test]
+fn bad_files_are_input_errors() {
+    let _serial = serial();
+    let dir = tempfile::tempdir().unwrap();
+    let missing = dir.path().join("missing.h5");
+    let garbage = dir.path().join("garbage.h5");
+    std::fs::write(&garbage, b"this is not an HDF5 file at all\n").unwrap();
+    let foreign = dir.path().join("foreign.h5");
+    hdf5::File::create(&foreign)
+        .unwrap()
+        .create_group("x")
+        .unwrap();
+    for p in [&missing, &garbage, &foreign] {
+        let name = p.display().to_string();
+        match ResultFile::open_for_resume(p) {
+            Err(Error::Input(e)) => assert_eq!(e.file, name),
+            other => panic!(
+                "{name}: expected an input error, got {:?}",
+                other.map(|_| ())
+            ),
+        }
+        assert!(matches!(read_increments(p), Err(Error::Input(_))));
+        assert!(matches!(read_state(p, 1), Err(Error::Input(_))));
+        assert!(matches!(info(p), Err(Error::Input(_))));
+    }
+
+    // A result file whose only increment is incomplete has nothing to resume from.
+    let partial = dir.path().join("partial.h5");
+    let s = state(1);
+    let mut file = ResultFile::create(&partial, &header(&s)).unwrap();
+    file.write_increment(&s, &report(&s), &stats(1)).unwrap();
+    drop(file);
+    hdf5::File::open_rw(&partial)
+        .unwrap()
+        .group("increments/00000001")
+        .unwrap()
+        .delete_attr("complete")
+        .unwrap();
+    match ResultFile::open_for_resume(&partial) {
+        Err(Error::Input(e)) => assert!(e.message.contains("no complete increment"), "{e}"),
+        other => panic!("expected an input error, got {:?}", other.map(|_| ())),
+    }
+    assert!(matches!(read_state(&partial, 1), Err(Error::Input(_))));
+
+    // A result file with a damaged increment: an error, not a panic.
+    let damaged = dir.path().join("damaged.h5");
+    let mut file = ResultFile::create(&damaged, &header(&s)).unwrap();
+    file.write_increment(&s, &report(&s), &stats(1)).unwrap();
+    drop(file);
+    hdf5::File::open_rw(&damaged)
+        .unwrap()
+        .unlink("increments/00000001/contacts/params")
+        .unwrap();
+    assert!(matches!(read_state(&damaged, 1), Err(Error::Input(_))));
+    assert!(matches!(
+        ResultFile::open_for_resume(&damaged),
+        Err(Error::Input(_))
+    ));
+}
+
+const PYTHON_CHECK: &str = r#"
+import sys, math
+import h5py
+import numpy as np
+
+with h5py.File(sys.argv[1], "r") as f:
+    assert f.attrs["format"] == "grainstat-result", f.attrs["format"]
+    assert f.attrs["scene_name"] == "tiny box"
+    assert f["run/scene"][()].decode().startswith('name = "tiny box"')
+    assert list(f["walls/name"].asstr()[...]) == ["bottom", "right", "top", "left"]
+    assert list(f["walls/control"].asstr()[...]) == ["displacement", "displacement", "stress", "displacement"]
+    assert math.isinf(f["walls/friction"][3]) and math.isnan(f["walls/length"][0])
+    assert f["grains/radius"].shape == (4,)
+    names = sorted(f["increments"])
+    assert names == ["00000001", "00000002", "00000003"], names
+    g = f["increments/00000003"]
+    assert g.attrs["complete"] == 1 and g.attrs["increment"] == 3
+    assert g["grains/position"].shape == (4, 2) and g["grains/position"].dtype == np.float64
+    pair = g["contacts/pair"][...]
+    assert pair.shape == (6, 2) and pair.dtype == np.int64
+    assert list(pair[3]) == [-1, 0] and list(pair[4]) == [-4, 2]
+    assert list(g["contacts/state"][...]) == [1, 0, 2, 0, 0, 3]
+    assert np.isinf(g["contacts/params"][1, 2])
+    assert g["walls/position"].shape == (4,) and g["walls/position"][2] == 1e-6 * 3.0
+    assert g["macro_stress"].shape == (2, 2) and g["macro_stress"][0, 0] == 1.0e5 + 3
+    assert g["broken_bonds"].shape == (1, 4) and list(g["broken_bonds"][0]) == [2, 3, 1, 1]
+    h = f["history"]
+    assert list(h["increment"][...]) == [1, 2, 3]
+    assert h["wall_stress"].shape == (3, 4) and h["wall_stress"][2, 0] == 5.0e4 + 3
+    assert list(h["macro_stress_xx"][...]) == [1.0e5 + 1, 1.0e5 + 2, 1.0e5 + 3]
+    assert f["summary"].attrs["increments"] == 3 and f["summary"].attrs["time_solve"] == 0.375
+print("python ok")
+"#;
+
+#[test]
+fn python_reads_the_layout() {
+    let _serial = serial();
+    let python = "/usr/bin/python3";
+    let has_h5py = std::process::Command::new(python)
+        .args(["-c", "import h5py"])
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if !has_h5py {
+        eprintln!("skipping python_reads_the_layout: {python} cannot import h5py");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("run.h5");
+    write_three(&path);
+    let script = dir.path().join("check.py");
+    std::fs::write(&script, PYTHON_CHECK).unwrap();
+    let out = std::process::Command::new(python)
+        .arg(&script)
+        .arg(&path)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "python check failed:\n{}\n{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
