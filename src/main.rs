@@ -24,9 +24,11 @@ struct Cli {
 enum Command {
     /// Run a scene: solve every load increment for the equilibrium of all grains at once and
     /// write the state to HDF5.
-    #[command(after_help = "Examples:\n  grainstat run examples/crystal-biaxial.toml\n  \
+    #[command(
+        after_help = "Examples:\n  grainstat run examples/crystal-biaxial.toml\n  \
         grainstat run examples/sand-hertz.toml --solver solvers/newton-lu.toml -o sand.h5\n  \
-        grainstat run examples/crystal-biaxial.toml --resume results/crystal-biaxial.h5")]
+        grainstat run examples/crystal-biaxial.toml --resume results/crystal-biaxial.h5"
+    )]
     Run {
         /// Scene file (TOML).
         scene: PathBuf,
@@ -183,15 +185,18 @@ fn log_line(sim: &Simulation, r: &IncrementReport) -> String {
         .zip(&m.wall_stress)
         .map(|(w, s)| format!("{} {:.4e}", w.name, s))
         .collect();
+    // The last Newton residuals show the rate of convergence.
+    let tail = &sim.last_residuals[sim.last_residuals.len().saturating_sub(5)..];
+    let residuals: Vec<String> = tail.iter().map(|v| format!("{v:.1e}")).collect();
     format!(
-        "inc {:>5} stage {}: {} it, {} pass, {} cuts, residual {:.1e}; contacts {} (+{} -{}), \
+        "inc {:>5} stage {}: {} it, {} pass, {} cuts, residuals [{}]; contacts {} (+{} -{}), \
          broken {}; walls [{}] Pa; macro xx {:.4e} yy {:.4e} xy {:.2e} Pa",
         r.increment,
         r.stage,
         r.newton_iterations,
         r.topology_passes,
         r.cuts,
-        r.residual,
+        residuals.join(" "),
         m.grain_contacts + m.wall_contacts,
         r.contacts_made,
         r.contacts_lost,

@@ -2,8 +2,8 @@
 //! increments (and the last), report each increment, and on failure write the last converged
 //! state before returning the error.
 
-use crate::output::{ResultFile, RunHeader};
 use crate::measure::measure;
+use crate::output::{ResultFile, RunHeader};
 use crate::simulation::Simulation;
 use crate::solver::stats::secs;
 use crate::state::IncrementReport;

@@ -94,7 +94,7 @@ stress = {{ top = {sigma1:e} }}
 pub fn two_discs(law: &str, stress: f64) -> Scene {
     let stiffness = match law {
         "hertz" => "shear_modulus = 1e9",
-        _ => "normal_stiffness = 1e8",
+        _ => "normal_stiffness = 1e6",
     };
     let text = format!(
         r#"
@@ -125,4 +125,64 @@ stress = {{ top = {stress:e} }}
 "#
     );
     parse_scene(&text, "samples::two_discs").expect("sample scene is valid")
+}
+
+/// A small sand sample (Hertz-Mindlin, table 1 defaults: `G_mu` = 1 GPa, `nu_mu` = 0.16,
+/// radius 0.1 mm) of `rows` x `columns` grains on a hexagonal lattice, just touching, with a
+/// seeded fraction `vacancies` of the grains taken out (so the force network is irregular),
+/// and every `rattler_every`-th remaining grain (0: none) shrunk to 0.8 r, so that it touches
+/// nothing. The box's top and right walls are stress-controlled: stage 1 raises both to
+/// 1 bar, stage 2 the top one to 2 bar.
+pub fn hertz_patch(
+    rows: usize,
+    columns: usize,
+    seed: u64,
+    friction: f64,
+    vacancies: f64,
+    rattler_every: usize,
+) -> Scene {
+    use rand::{Rng, SeedableRng};
+    let r0 = 1e-4;
+    let lattice = hex_crystal(rows, columns, r0, false);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let mut scene = parse_scene(
+        &format!(
+            r#"
+name = "hertz-patch"
+[material]
+law = "hertz"
+shear_modulus = 1e9
+poisson = 0.16
+friction = {friction:e}
+[grains]
+x = [0.0]
+y = [0.0]
+r = [1.0]
+[box]
+stress_controlled = ["top", "right"]
+[[stages]]
+name = "isotropic"
+increments = 4
+stress = {{ top = 1e5, right = 1e5 }}
+[[stages]]
+name = "biaxial"
+increments = 4
+stress = {{ top = 2e5 }}
+"#
+        ),
+        "samples::hertz_patch",
+    )
+    .expect("sample scene is valid");
+    let g = &mut scene.grains;
+    (g.x, g.y, g.r) = (Vec::new(), Vec::new(), Vec::new());
+    for p in &lattice.position {
+        if rng.random::<f64>() < vacancies {
+            continue;
+        }
+        let rattler = rattler_every > 0 && g.r.len() % rattler_every == rattler_every / 2;
+        g.x.push(p[0]);
+        g.y.push(p[1]);
+        g.r.push(if rattler { 0.8 * r0 } else { r0 });
+    }
+    scene
 }

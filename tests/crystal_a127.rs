@@ -91,7 +91,12 @@ fn crystal_contact_forces_match_a123_and_a127() {
     eprintln!("isotropic, A.123: F't = F'n = {fn_:.5e} N");
     eprintln!("  distance [d]   F't / A.123   F'n / A.123   |F's| / F'n");
     for (d, t, n, s) in &iso {
-        eprintln!("  {d:>4}   {:>12.5} {:>12.5} {:>12.2e}", t / ft, n / fn_, s / n);
+        eprintln!(
+            "  {d:>4}   {:>12.5} {:>12.5} {:>12.2e}",
+            t / ft,
+            n / fn_,
+            s / n
+        );
     }
     let far = 8;
     for (d, t, n, s) in iso.iter().filter(|b| b.0 >= far) {
@@ -104,7 +109,10 @@ fn crystal_contact_forces_match_a123_and_a127() {
     while !sim.is_finished() {
         let report = sim.run_increment().unwrap();
         let (eq, _) = sim.equilibrium_error();
-        assert!(eq <= 1e-9, "force and moment balance of every grain: {eq:e}");
+        assert!(
+            eq <= 1e-9,
+            "force and moment balance of every grain: {eq:e}"
+        );
         let m = &report.measurements;
         // Eq. A.41 against the wall stresses (issue: within 1%).
         assert!(relative(m.macro_stress[1][1], m.wall_stress[2]) < 0.01);
@@ -115,7 +123,12 @@ fn crystal_contact_forces_match_a123_and_a127() {
     eprintln!("biaxial, A.127: F't = {ft:.5e}, F'n = {fn_:.5e}, F's = {fs:.5e} N");
     eprintln!("  distance [d]   F't / A.127   F'n / A.127   |F's| / A.127");
     for (d, t, n, s) in &bi {
-        eprintln!("  {d:>4}   {:>12.5} {:>12.5} {:>12.5}", t / ft, n / fn_, s / fs);
+        eprintln!(
+            "  {d:>4}   {:>12.5} {:>12.5} {:>12.5}",
+            t / ft,
+            n / fn_,
+            s / fs
+        );
     }
     for (d, t, n, s) in bi.iter().filter(|b| b.0 >= far) {
         assert!(relative(*t, ft) < 0.02, "A.127 F't at {d} d: {t} vs {ft}");

@@ -86,13 +86,17 @@ fn contact(pair: Pair, p: ContactParams, k: f64) -> Contact {
 /// broken one still touching, infinite friction and a broken-bond record.
 fn state(k: usize) -> State {
     let kf = k as f64;
-    let position = vec![
-        [0.5, 0.5 + 1e-9 * kf],
-        [1.5 - 1e-10 / 3.0 * kf, 0.5],
-        [0.5, 1.5],
-        [1.5, 1.5 + std::f64::consts::PI * 1e-12 * kf],
+    // Fixed origins, displacements growing with k (a signed zero included).
+    let origin = vec![[0.5, 0.5], [1.5, 0.5], [0.5, 1.5], [1.5, 1.5]];
+    let displacement = vec![
+        [0.0, 1e-9 * kf],
+        [-1e-10 / 3.0 * kf, -0.0],
+        [0.0, 0.0],
+        [0.0, std::f64::consts::PI * 1e-12 * kf],
     ];
-    let mut grains = GrainSet::new(position.clone(), vec![0.5, 0.5, 0.4999, 0.5001]);
+    let radius = vec![0.5, 0.5, 0.4999, 0.5001];
+    let mut grains = GrainSet::from_parts(origin, displacement, vec![0.0; 4], radius);
+    let position = grains.position.clone();
     grains.rotation = vec![1e-3 * kf, -0.0, 2.0e-300, -1.0 / 7.0 * kf];
     let mut walls = walls();
     walls.walls[2].position = 1e-6 * kf;
@@ -447,6 +451,7 @@ with h5py.File(sys.argv[1], "r") as f:
     g = f["increments/00000003"]
     assert g.attrs["complete"] == 1 and g.attrs["increment"] == 3
     assert g["grains/position"].shape == (4, 2) and g["grains/position"].dtype == np.float64
+    assert (g["grains/origin"][...] + g["grains/displacement"][...] == g["grains/position"][...]).all()
     pair = g["contacts/pair"][...]
     assert pair.shape == (6, 2) and pair.dtype == np.int64
     assert list(pair[3]) == [-1, 0] and list(pair[4]) == [-4, 2]

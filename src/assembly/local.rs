@@ -29,14 +29,22 @@ pub fn contact_block(k: &Kinematics, r: &Response, map: &PairMap, symmetric: boo
     let bn = [n[0], n[1], 0.0, -n[0], -n[1], 0.0];
     let bt = [-t[0], -t[1], -k.radius_a, t[0], t[1], -k.radius_b];
     let g = if symmetric { 1.0 } else { k.shear_scale };
-    let s = [-g * t[0], -g * t[1], -k.radius_a, g * t[0], g * t[1], -k.radius_b];
+    let s = [
+        -g * t[0],
+        -g * t[1],
+        -k.radius_a,
+        g * t[0],
+        g * t[1],
+        -k.radius_b,
+    ];
 
     let mut f = [0.0; 6];
     let mut kl = [[0.0; 6]; 6];
     for a in 0..6 {
         f[a] = -(r.normal_force * bn[a] + r.shear_force * bt[a]);
         for b in 0..6 {
-            kl[a][b] = r.dfn_dn * bn[a] * bn[b] + r.dfs_dn * bt[a] * bn[b] + r.dfs_ds * bt[a] * s[b];
+            kl[a][b] =
+                r.dfn_dn * bn[a] * bn[b] + r.dfs_dn * bt[a] * bn[b] + r.dfs_ds * bt[a] * s[b];
         }
     }
     if !k.wall {

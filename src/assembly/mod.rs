@@ -134,7 +134,11 @@ impl Pattern {
     pub fn build(friends: &FriendSet, dofs: &DofMap, walls: &WallSet) -> Pattern {
         let n = dofs.len;
         let mut columns: Vec<Vec<usize>> = (0..n).map(|j| vec![j]).collect();
-        let maps: Vec<PairMap> = friends.pairs.iter().map(|p| dofs.pair_map(*p, walls)).collect();
+        let maps: Vec<PairMap> = friends
+            .pairs
+            .iter()
+            .map(|p| dofs.pair_map(*p, walls))
+            .collect();
         for m in &maps {
             for &c in &m.dofs[..m.len] {
                 columns[c].extend_from_slice(&m.dofs[..m.len]);
@@ -164,7 +168,10 @@ impl Pattern {
         }
         let slot = |row: usize, col: usize| {
             let range = col_ptr[col]..col_ptr[col + 1];
-            col_ptr[col] + row_idx[range].binary_search(&row).expect("entry in pattern")
+            col_ptr[col]
+                + row_idx[range]
+                    .binary_search(&row)
+                    .expect("entry in pattern")
         };
         let mut slots = Vec::new();
         let mut start = Vec::with_capacity(maps.len() + 1);

@@ -76,7 +76,9 @@ pub fn kinematics(pair: Pair, grains: &GrainSet, walls: &WallSet, q: &Configurat
                 tangent: t,
                 distance: len,
                 overlap: ra + rb - len,
-                shear_increment: dd[0] * t[0] + dd[1] * t[1] - ra * q.rotation[a] - rb * q.rotation[b],
+                shear_increment: dd[0] * t[0] + dd[1] * t[1]
+                    - ra * q.rotation[a]
+                    - rb * q.rotation[b],
                 shear_scale: 1.0 - (dd[0] * n[0] + dd[1] * n[1]) / len,
                 radius_a: ra,
                 radius_b: rb,

@@ -72,7 +72,11 @@ pub trait ContactLaw: Sync {
                 shear_force: trial,
                 sliding: false,
                 dfn_dn,
-                dfs_dn: if consistent { dks_dn * shear_increment } else { 0.0 },
+                dfs_dn: if consistent {
+                    dks_dn * shear_increment
+                } else {
+                    0.0
+                },
                 dfs_ds: ks,
             };
         }
@@ -129,7 +133,10 @@ impl ContactLaw for HertzMindlin {
             return (0.0, 0.0);
         }
         let root = n.sqrt();
-        (p.kappa * p.stiffness * root, 0.5 * p.kappa * p.stiffness / root)
+        (
+            p.kappa * p.stiffness * root,
+            0.5 * p.kappa * p.stiffness / root,
+        )
     }
 }
 

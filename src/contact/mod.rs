@@ -104,6 +104,29 @@ impl Contact {
         }
     }
 
+    /// Whether an intact bond fails at the current response, and how: in tension when
+    /// `F_n < -F_t` (eq. 12), in shear when `|F_s| > f F_n + F_t` (eq. 11). Exactly on the
+    /// limit it holds.
+    pub fn bond_failure(&self) -> Option<BreakMode> {
+        if !self.bonded {
+            return None;
+        }
+        let (fn_, fs) = (self.response.normal_force, self.response.shear_force);
+        let ft = self.params.strength;
+        let shear_limit = if self.params.friction.is_infinite() {
+            f64::INFINITY
+        } else {
+            self.params.friction * fn_ + ft
+        };
+        if fn_ < -ft {
+            Some(BreakMode::Tension)
+        } else if fs.abs() > shear_limit {
+            Some(BreakMode::Shear)
+        } else {
+            None
+        }
+    }
+
     /// Accumulated shear displacement including this increment.
     pub fn shear_displacement(&self) -> f64 {
         self.shear_displacement0 + self.shear_increment
@@ -153,5 +176,49 @@ impl ContactSet {
             .map(|c| c.response.normal_force.abs())
             .sum::<f64>()
             / self.contacts.len() as f64
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::Side;
+
+    fn bonded(normal_force: f64, shear_force: f64) -> Contact {
+        let params = ContactParams {
+            stiffness: 1e6,
+            kappa: kappa(0.16),
+            friction: 0.5,
+            strength: 2.0,
+        };
+        let mut c = Contact::new(
+            Pair {
+                a: Side::Grain(0),
+                b: 1,
+            },
+            params,
+            true,
+        );
+        c.response.normal_force = normal_force;
+        c.response.shear_force = shear_force;
+        c
+    }
+
+    #[test]
+    fn bonded_pair_breaks_exactly_at_the_tension_cut_off() {
+        // Eq. 12: F_n < -F_t breaks; F_n = -F_t holds.
+        assert_eq!(bonded(-2.0, 0.0).bond_failure(), None);
+        let beyond = -2.0 * (1.0 + f64::EPSILON);
+        assert_eq!(bonded(beyond, 0.0).bond_failure(), Some(BreakMode::Tension));
+    }
+
+    #[test]
+    fn bonded_pair_cracks_exactly_at_the_shear_limit() {
+        // Eq. 11: |F_s| > f F_n + F_t cracks; on the limit it holds.
+        let limit = 0.5 * 4.0 + 2.0;
+        assert_eq!(bonded(4.0, limit).bond_failure(), None);
+        assert_eq!(bonded(4.0, -limit).bond_failure(), None);
+        let beyond = limit * (1.0 + f64::EPSILON);
+        assert_eq!(bonded(4.0, -beyond).bond_failure(), Some(BreakMode::Shear));
     }
 }

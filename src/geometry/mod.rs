@@ -97,7 +97,12 @@ impl GrainSet {
 
     /// Smallest axis-aligned box around all grains: `[xmin, ymin, xmax, ymax]`.
     pub fn bounding_box(&self) -> [f64; 4] {
-        let mut b = [f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY];
+        let mut b = [
+            f64::INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NEG_INFINITY,
+        ];
         for (p, r) in self.position.iter().zip(&self.radius) {
             b[0] = b[0].min(p[0] - r);
             b[1] = b[1].min(p[1] - r);

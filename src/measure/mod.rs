@@ -31,7 +31,12 @@ pub struct Measurements {
 }
 
 /// Measure a converged state.
-pub fn measure(grains: &GrainSet, walls: &WallSet, contacts: &ContactSet, depth: f64) -> Measurements {
+pub fn measure(
+    grains: &GrainSet,
+    walls: &WallSet,
+    contacts: &ContactSet,
+    depth: f64,
+) -> Measurements {
     let q = Configuration::at_rest(grains, walls);
     let mut m = Measurements {
         wall_normal_force: vec![0.0; walls.len()],
@@ -67,7 +72,11 @@ pub fn measure(grains: &GrainSet, walls: &WallSet, contacts: &ContactSet, depth:
     m.volume = walls.enclosed_area().map_or(f64::NAN, |a| a * depth);
     m.macro_stress = sum.map(|row| row.map(|s| s / m.volume));
     m.wall_stress = (0..walls.len())
-        .map(|w| walls.length(w).map_or(f64::NAN, |l| m.wall_normal_force[w] / (l * depth)))
+        .map(|w| {
+            walls
+                .length(w)
+                .map_or(f64::NAN, |l| m.wall_normal_force[w] / (l * depth))
+        })
         .collect();
     m.contacts_per_grain = 2.0 * m.grain_contacts as f64 / grains.len().max(1) as f64;
     m

@@ -301,6 +301,22 @@ impl ResultFile {
                 self.walls
             )));
         }
+        let g = &state.grains;
+        let n = self.grains;
+        if g.position.len() != n
+            || g.origin.len() != n
+            || g.displacement.len() != n
+            || g.rotation.len() != n
+        {
+            return Err(Fail(format!(
+                "the grains' arrays have lengths {}, {}, {} and {} (position, origin, \
+                 displacement, rotation); there are {n} grains",
+                g.position.len(),
+                g.origin.len(),
+                g.displacement.len(),
+                g.rotation.len()
+            )));
+        }
         let k = state.increment;
         let name = group_name(k);
         let inc = self.file.group("increments")?;
@@ -887,6 +903,18 @@ fn write_group_state(g: &Group, state: &State, report: &IncrementReport) -> R<()
         "position",
         ArrayView2::from(&state.grains.position[..]),
     )?;
+    // Origin and displacement too: the solver forms contact geometry from them, and
+    // `position = origin + displacement` cannot be split again exactly.
+    put(
+        &grains,
+        "origin",
+        ArrayView2::from(&state.grains.origin[..]),
+    )?;
+    put(
+        &grains,
+        "displacement",
+        ArrayView2::from(&state.grains.displacement[..]),
+    )?;
     put(
         &grains,
         "rotation",
@@ -1005,8 +1033,13 @@ fn read_group_state(g: &Group, h: &RunHeader) -> R<State> {
     let n = h.radius.len();
     let nw = h.walls.len();
     let grains = g.group("grains")?;
-    let position = read_rows::<f64, 2>(&grains, "position", Some(n))?;
-    let rotation = read_vec::<f64>(&grains, "rotation", Some(n))?;
+    let grains = GrainSet {
+        position: read_rows::<f64, 2>(&grains, "position", Some(n))?,
+        origin: read_rows::<f64, 2>(&grains, "origin", Some(n))?,
+        displacement: read_rows::<f64, 2>(&grains, "displacement", Some(n))?,
+        rotation: read_vec::<f64>(&grains, "rotation", Some(n))?,
+        radius: h.radius.clone(),
+    };
 
     let walls = g.group("walls")?;
     let wall_position = read_vec::<f64>(&walls, "position", Some(nw))?;
@@ -1085,7 +1118,7 @@ fn read_group_state(g: &Group, h: &RunHeader) -> R<State> {
         increment: get_count(g, "increment")?,
         stage: get_count(g, "stage")?,
         stage_increment: get_count(g, "stage_increment")?,
-        grains: GrainSet::from_parts(position, vec![[0.0; 2]; h.radius.len()], rotation, h.radius.clone()),
+        grains,
         walls: WallSet { walls },
         contacts: ContactSet {
             contacts,

@@ -187,7 +187,8 @@ impl Equations for IncrementEquations<'_> {
                 let load = sigma * self.wall_length(w) * self.depth;
                 residual[dof] += load;
                 sum_ext += load.abs();
-                if let (Some(t), false, None) = (tangent.as_deref_mut(), self.symmetric, wall.length)
+                if let (Some(t), false, None) =
+                    (tangent.as_deref_mut(), self.symmetric, wall.length)
                 {
                     // dL/d(position of a span wall) = -1, so K = -dR/du = sigma * D.
                     for &(row, _col, slot) in self.pattern.couplings.iter().filter(|c| c.0 == dof) {
@@ -197,9 +198,16 @@ impl Equations for IncrementEquations<'_> {
                 }
             }
         }
+        // Force scale: the mean contact force, or, while contacts carry (almost) nothing, the
+        // wall loads shared over the grains touching the loaded walls.
         let n_c = self.contacts.len().max(1) as f64;
-        let n_w = self.dofs.wall.iter().flatten().count().max(1) as f64;
-        self.f_ref = if sum_fn > 0.0 { sum_fn / n_c } else { sum_ext / n_w };
+        let loaded = self
+            .contacts
+            .iter()
+            .filter(|c| matches!(c.pair.a, crate::geometry::Side::Wall(w) if self.dofs.wall[w].is_some()))
+            .count()
+            .max(1) as f64;
+        self.f_ref = (sum_fn / n_c).max(sum_ext / loaded);
         if let Some(bad) = residual.iter().position(|r| !r.is_finite()) {
             return Err(NumericError::NotFinite {
                 what: "residual",

@@ -260,7 +260,9 @@ impl Simulation {
         file: &str,
     ) -> Result<Simulation, Error> {
         if grains.is_empty() {
-            return Err(InputError::new(file, "the scene has no grains").at_key("grains").into());
+            return Err(InputError::new(file, "the scene has no grains")
+                .at_key("grains")
+                .into());
         }
         let walls = build_walls(scene, &grains, file)?;
         let material = MaterialModel::from_scene(scene);

@@ -92,7 +92,10 @@ impl SolverConfig {
         let mut bad = Vec::new();
         let mut positive = |key: &str, v: f64| {
             if !(v.is_finite() && v > 0.0) {
-                bad.push((key.to_string(), format!("must be a finite number > 0, not {v}")));
+                bad.push((
+                    key.to_string(),
+                    format!("must be a finite number > 0, not {v}"),
+                ));
             }
         };
         positive("tolerance", self.tolerance);

@@ -83,7 +83,8 @@ impl LinearSolver {
                 Symbolic::Cholesky(s, values)
             }
             LinearKind::Lu => {
-                let s = factorize_symbolic_lu(pattern.as_ref(), Default::default()).map_err(fail)?;
+                let s =
+                    factorize_symbolic_lu(pattern.as_ref(), Default::default()).map_err(fail)?;
                 self.scratch = MemBuffer::new(StackReq::any_of(&[
                     s.factorize_numeric_lu_scratch::<f64>(self.par, Default::default()),
                     s.solve_in_place_scratch::<f64>(1, self.par),
@@ -151,8 +152,12 @@ impl LinearSolver {
             Symbolic::Cholesky(s, values) => {
                 LltRef::new(s, values).solve_in_place_with_conj(Conj::No, x, self.par, stack)
             }
-            Symbolic::Lu(s, numeric) => LuRef::new_unchecked(s, numeric)
-                .solve_in_place_with_conj(Conj::No, x, self.par, stack),
+            Symbolic::Lu(s, numeric) => LuRef::new_unchecked(s, numeric).solve_in_place_with_conj(
+                Conj::No,
+                x,
+                self.par,
+                stack,
+            ),
             Symbolic::None => {}
         }
         stats.counters.solves += 1;

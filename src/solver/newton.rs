@@ -54,9 +54,11 @@ pub struct NewtonSettings {
     /// Keep the last factorisation while it contracts the residual well (chord steps): for
     /// linear scenes, where the tangent hardly changes.
     pub reuse_factorisation: bool,
-    /// Largest step, in mean radii: longer Newton steps are truncated to it (thesis 2.4), so no
-    /// grain jumps past contacts its friends lists cannot see.
+    /// Largest step, in mean radii: the trust radius never exceeds it, so no grain jumps past
+    /// contacts its friends lists cannot see.
     pub max_step: f64,
+    /// Trust radius at the start, in mean radii (about the contact overlaps).
+    pub initial_trust: f64,
 }
 
 /// How a Newton solve ended.
@@ -117,6 +119,7 @@ pub fn solve(
         ..Default::default()
     };
     let mut lambda = 0.0f64;
+    let mut trust = settings.initial_trust.min(settings.max_step);
     let mut last_step = 0.0;
     // A factorisation kept from an earlier solve is trusted only as a chord.
     let mut fresh_factor = false;
@@ -157,13 +160,16 @@ pub fn solve(
                 continue;
             }
 
-            // Truncate long steps, then line search on |R|_2: halve the step while it does not
-            // decrease enough.
+            // Trust region: a step longer than the trust radius is truncated to it (thesis
+            // 2.4, 'truncate'). The radius starts at the scale of contact overlaps, grows
+            // while full steps succeed and shrinks to what the line search accepted.
             let length = eq.step_norm(&du);
-            if length > settings.max_step {
-                let shrink = settings.max_step / length;
+            let truncated = length > trust;
+            if truncated {
+                let shrink = trust / length;
                 du.iter_mut().for_each(|d| *d *= shrink);
             }
+            // Line search on |R|_2: halve the step while it does not decrease enough.
             let mut alpha = 1.0;
             loop {
                 for k in 0..n {
@@ -175,7 +181,6 @@ pub fn solve(
                     && (t_merit <= (1.0 - 1e-4 * alpha) * merit || t_rel <= settings.tolerance);
                 // A chord step must also contract well, or the tangent is refreshed.
                 let contracts = !chord || t_merit <= 0.25 * merit || t_rel <= settings.tolerance;
-                if std::env::var_os("GS_DEBUG").is_some() { eprintln!("it {iteration} chord {chord} lambda {lambda:.1e} alpha {alpha} rel {rel:.3e} -> {t_rel:.3e} merit {merit:.3e} -> {t_merit:.3e} step {:.3e}", eq.step_norm(&du)); }
                 if good && contracts {
                     u.copy_from_slice(&trial_u);
                     std::mem::swap(&mut residual, &mut trial_residual);
@@ -196,6 +201,11 @@ pub fn solve(
                     if lambda < settings.lambda_min {
                         lambda = 0.0;
                     }
+                    if truncated {
+                        trust = (2.0 * trust).min(settings.max_step);
+                    }
+                } else {
+                    trust = (alpha * length.min(trust)).max(1e-12);
                 }
                 break;
             }
@@ -251,7 +261,8 @@ fn regularise(eq: &dyn Equations, values: &[f64], diagonal: &[usize], lambda: f6
     };
     for (dof, &s) in diagonal.iter().enumerate() {
         let unit = k * eq.unit_stiffness(dof);
-        out[s] += lambda * values[s].abs().max(unit) + if values[s] <= 0.0 { 1e-6 * unit } else { 0.0 };
+        out[s] +=
+            lambda * values[s].abs().max(unit) + if values[s] <= 0.0 { 1e-6 * unit } else { 0.0 };
     }
     out
 }
