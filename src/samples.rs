@@ -46,7 +46,7 @@ name = "crystal-biaxial"
 law = "linear"
 normal_stiffness = 1e6
 poisson = 0.16
-friction = 0.5
+friction = 0.6
 cohesion = 1e8
 bonded = true
 [grains.crystal]

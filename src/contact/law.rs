@@ -50,6 +50,13 @@ pub trait ContactLaw: Sync {
     /// Shear stiffness `k_s` and `dk_s/dn` at overlap `n`.
     fn shear_stiffness(&self, p: &ContactParams, n: f64) -> (f64, f64);
 
+    /// Smallest normal tangent worth offering Newton while it is far from the answer, for a
+    /// contact expected to carry about `force_scale`: a law whose stiffness vanishes at first
+    /// touch says how stiff such a contact will be; the others need no floor.
+    fn tangent_floor(&self, _p: &ContactParams, _force_scale: f64) -> f64 {
+        0.0
+    }
+
     /// The full response: elastic trial `F_s0 + k_s ds`, then, unless bonded, the return
     /// map onto `|F_s| = f F_n`.
     fn respond(
@@ -137,6 +144,11 @@ impl ContactLaw for HertzMindlin {
             p.kappa * p.stiffness * root,
             0.5 * p.kappa * p.stiffness / root,
         )
+    }
+
+    /// The tangent `1.5 M^(2/3) F^(1/3)` of a contact carrying the force scale.
+    fn tangent_floor(&self, p: &ContactParams, force_scale: f64) -> f64 {
+        1.5 * p.stiffness.powf(2.0 / 3.0) * force_scale.cbrt()
     }
 }
 

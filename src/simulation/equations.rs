@@ -3,7 +3,7 @@
 
 use crate::assembly::{contact_block, DofMap, Pattern};
 use crate::contact::{kinematics, Configuration, Contact, ContactLaw, Kinematics, SlipTangent};
-use crate::geometry::{GrainSet, WallSet};
+use crate::geometry::{GrainSet, Side, WallSet};
 use crate::solver::stats::{secs, StageTimers};
 use crate::solver::Equations;
 use crate::NumericError;
@@ -77,6 +77,10 @@ pub struct IncrementEquations<'a> {
     pub f_ref: f64,
     /// Contact stiffness to regularise with when the tangent has none.
     pub stiffness_hint: f64,
+    /// Whether Newton is far from the answer (soft tangents get a floor).
+    pub far: bool,
+    /// Wall load per grain touching a loaded wall [N]: the force scale before contacts carry.
+    pub load_scale: f64,
 }
 
 impl IncrementEquations<'_> {
@@ -106,10 +110,10 @@ impl IncrementEquations<'_> {
         }
     }
 
-    /// Kinematics and the return map of every contact, in the configuration of `u`.
-    pub fn update_contacts(&mut self, u: &[f64]) -> Result<(), NumericError> {
+    /// Kinematics and the return map of every contact, in the configuration last set by
+    /// [`IncrementEquations::configure`].
+    pub fn update_contacts(&mut self) -> Result<(), NumericError> {
         let start = Instant::now();
-        self.configure(u);
         self.kin.clear();
         for c in self.contacts.iter_mut() {
             let k = kinematics(c.pair, self.grains, self.walls, self.q);
@@ -123,6 +127,17 @@ impl IncrementEquations<'_> {
                 c.shear_increment,
                 self.slip_tangent,
             );
+            let scale = self.f_ref.max(self.load_scale);
+            if self.far && c.response.normal_force < 1e-3 * scale {
+                // Far from the answer, a contact that carries (almost) nothing yet gets the
+                // stiffness it will have when it carries its share.
+                let floor = self.law.tangent_floor(&c.params, scale);
+                let r = &mut c.response;
+                r.dfn_dn = r.dfn_dn.max(floor);
+                if !r.sliding {
+                    r.dfs_ds = r.dfs_ds.max(c.params.kappa * floor);
+                }
+            }
             if !(c.response.normal_force.is_finite() && c.response.shear_force.is_finite()) {
                 return Err(NumericError::NotFinite {
                     what: "contact force",
@@ -154,12 +169,39 @@ impl Equations for IncrementEquations<'_> {
         residual: &mut [f64],
         mut tangent: Option<&mut [f64]>,
     ) -> Result<(), NumericError> {
-        self.update_contacts(u)?;
-        let start = Instant::now();
         residual.iter_mut().for_each(|r| *r = 0.0);
         if let Some(t) = tangent.as_deref_mut() {
             t.iter_mut().for_each(|v| *v = 0.0);
         }
+        // Stress-controlled walls: pushed into the sample by stress * length * depth, the
+        // length following the walls that bound it (a follower load).
+        self.configure(u);
+        let mut sum_ext = 0.0;
+        for (w, wall) in self.walls.walls.iter().enumerate() {
+            if let Some(dof) = self.dofs.wall[w] {
+                let sigma = self.step.stress[w];
+                let load = sigma * self.wall_length(w) * self.depth;
+                residual[dof] += load;
+                sum_ext += load.abs();
+                if let (Some(t), false, None) =
+                    (tangent.as_deref_mut(), self.symmetric, wall.length)
+                {
+                    // dL/d(position of a span wall) = -1, so K = -dR/du = sigma * D.
+                    for &(_, _, slot) in self.pattern.couplings.iter().filter(|c| c.0 == dof) {
+                        t[slot] += sigma * self.depth;
+                    }
+                }
+            }
+        }
+        let loaded = self
+            .contacts
+            .iter()
+            .filter(|c| matches!(c.pair.a, Side::Wall(w) if self.dofs.wall[w].is_some()))
+            .count()
+            .max(1) as f64;
+        self.load_scale = sum_ext / loaded;
+        self.update_contacts()?;
+        let start = Instant::now();
         let mut sum_fn = 0.0;
         for (idx, c) in self.contacts.iter().enumerate() {
             sum_fn += c.response.normal_force.abs();
@@ -178,36 +220,10 @@ impl Equations for IncrementEquations<'_> {
                 }
             }
         }
-        // Stress-controlled walls: pushed into the sample by stress * length * depth, the
-        // length following the walls that bound it (a follower load).
-        let mut sum_ext = 0.0;
-        for (w, wall) in self.walls.walls.iter().enumerate() {
-            if let Some(dof) = self.dofs.wall[w] {
-                let sigma = self.step.stress[w];
-                let load = sigma * self.wall_length(w) * self.depth;
-                residual[dof] += load;
-                sum_ext += load.abs();
-                if let (Some(t), false, None) =
-                    (tangent.as_deref_mut(), self.symmetric, wall.length)
-                {
-                    // dL/d(position of a span wall) = -1, so K = -dR/du = sigma * D.
-                    for &(row, _col, slot) in self.pattern.couplings.iter().filter(|c| c.0 == dof) {
-                        debug_assert_eq!(row, dof);
-                        t[slot] += sigma * self.depth;
-                    }
-                }
-            }
-        }
         // Force scale: the mean contact force, or, while contacts carry (almost) nothing, the
         // wall loads shared over the grains touching the loaded walls.
         let n_c = self.contacts.len().max(1) as f64;
-        let loaded = self
-            .contacts
-            .iter()
-            .filter(|c| matches!(c.pair.a, crate::geometry::Side::Wall(w) if self.dofs.wall[w].is_some()))
-            .count()
-            .max(1) as f64;
-        self.f_ref = (sum_fn / n_c).max(sum_ext / loaded);
+        self.f_ref = (sum_fn / n_c).max(self.load_scale);
         if let Some(bad) = residual.iter().position(|r| !r.is_finite()) {
             return Err(NumericError::NotFinite {
                 what: "residual",
@@ -248,6 +264,10 @@ impl Equations for IncrementEquations<'_> {
 
     fn stiffness_hint(&self) -> f64 {
         self.stiffness_hint
+    }
+
+    fn set_far(&mut self, far: bool) {
+        self.far = far;
     }
 
     fn step_norm(&self, du: &[f64]) -> f64 {

@@ -267,7 +267,7 @@ impl Simulation {
             // Contacts made and lost: after convergence, and also when Newton stalls, since a
             // loaded grain that has lost its support cannot be in equilibrium until it meets
             // its next neighbour.
-            let change = self.update_topology(step, &u)?;
+            let change = self.update_topology(step, &u, outcome.converged)?;
             total.made += change.made;
             total.lost += change.lost;
             total.broken += change.broken;
@@ -312,6 +312,8 @@ impl Simulation {
             timers: &mut self.stats.timers,
             f_ref: 0.0,
             stiffness_hint: self.material.stiffness_hint(self.r_mean),
+            far: false,
+            load_scale: 0.0,
         }
     }
 
@@ -361,19 +363,24 @@ impl Simulation {
     }
 
     /// After Newton converged: break overloaded bonds, drop contacts that opened, rebuild the
-    /// friends lists if something moved too far, and make the contacts that closed.
+    /// friends lists if something moved too far, and make the contacts that closed. After a
+    /// stalled pass only contacts are made: what opens at an iterate that is not an
+    /// equilibrium may close again.
     fn update_topology(
         &mut self,
         step: &LoadStep,
         u: &[f64],
+        converged: bool,
     ) -> Result<TopologyChange, NumericError> {
         // Responses at the converged iterate (a rejected line-search trial may be in place).
-        self.equations(step).update_contacts(u)?;
+        let mut eq = self.equations(step);
+        eq.configure(u);
+        eq.update_contacts()?;
         let start = Instant::now();
         let mut change = TopologyChange::default();
         let increment = self.state.increment + 1;
         let set = &mut self.state.contacts;
-        for c in set.contacts.iter_mut() {
+        for c in set.contacts.iter_mut().filter(|_| converged) {
             if let Some(mode) = c.bond_failure() {
                 c.bonded = false;
                 c.broken = true;

@@ -36,6 +36,10 @@ pub trait Equations {
     /// A stiffness to regularise with when the tangent has none at all (a Hertz sample whose
     /// contacts just touch).
     fn stiffness_hint(&self) -> f64;
+
+    /// Whether the iterate is still far from the answer: the equations may then offer a
+    /// stiffer tangent where theirs vanishes (only the path changes, not the answer).
+    fn set_far(&mut self, far: bool);
 }
 
 /// Settings of one Newton solve.
@@ -91,6 +95,9 @@ pub struct SystemMatrix<'a> {
     pub diagonal: &'a [usize],
 }
 
+/// Relative residual above which the iterate counts as far from the answer.
+const FAR: f64 = 1e-2;
+
 /// Solve `R(u) = 0` starting from `u`; `u` holds the last iterate on return.
 pub fn solve(
     eq: &mut dyn Equations,
@@ -112,8 +119,14 @@ pub fn solve(
     let mut du = vec![0.0; n];
     let mut trial_u = vec![0.0; n];
 
+    // The start counts as far until the first residual says otherwise.
+    eq.set_far(true);
     eq.evaluate(u, &mut residual, Some(values))?;
     let (mut rel, mut worst, mut merit) = eq.residual_norm(&residual);
+    if rel <= FAR {
+        eq.set_far(false);
+        eq.evaluate(u, &mut residual, Some(values))?;
+    }
     let mut out = NewtonOutcome {
         history: vec![rel],
         ..Default::default()
@@ -132,6 +145,7 @@ pub fn solve(
         }
         out.iterations = iteration;
         stats.counters.newton_iterations += 1;
+        eq.set_far(rel > FAR);
 
         let mut accepted = false;
         for _attempt in 0..12 {
