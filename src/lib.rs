@@ -40,3 +40,8 @@ pub mod solver;
 pub mod state;
 
 pub use error::{Error, InputError, NumericError, Result};
+
+/// The README's Rust example, compiled and run as a doctest.
+#[doc = include_str!("../README.md")]
+#[cfg(doctest)]
+pub struct ReadmeDoctests;

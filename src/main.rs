@@ -99,7 +99,11 @@ fn run(
     let (scene, scene_text) = load_scene(scene_path)?;
     let (config, solver_text) = match solver_path {
         Some(p) => load_solver(p)?,
-        None => (SolverConfig::default(), String::new()),
+        None => {
+            let config = SolverConfig::default();
+            let text = toml::to_string(&config).map_err(|e| Error::io("solver settings", e))?;
+            (config, text)
+        }
     };
 
     let (mut sim, mut file) = match &resume {

@@ -68,13 +68,13 @@ pub fn contact_block(k: &Kinematics, r: &Response, map: &PairMap, symmetric: boo
     }
 
     let mut out = LocalBlock::default();
-    for a in 0..6 {
-        let Some((ra, wa)) = map.feeds[a] else {
+    for (a, feed_a) in map.feeds.iter().enumerate() {
+        let Some((ra, wa)) = *feed_a else {
             continue;
         };
         out.force[ra] += wa * f[a];
-        for b in 0..6 {
-            if let Some((rb, wb)) = map.feeds[b] {
+        for (b, feed_b) in map.feeds.iter().enumerate() {
+            if let Some((rb, wb)) = *feed_b {
                 out.stiffness[ra][rb] += wa * wb * kl[a][b];
             }
         }

@@ -39,11 +39,11 @@ pub struct Kinematics {
     pub normal: [f64; 2],
     /// Unit tangent: the normal turned 90 degrees anticlockwise.
     pub tangent: [f64; 2],
-    /// Centre distance (grain-grain) or centre-to-wall distance (wall) [m].
+    /// Centre distance (grain-grain) or centre-to-wall distance (wall) (m).
     pub distance: f64,
-    /// Overlap `n = r_a + r_b - d` [m].
+    /// Overlap `n = r_a + r_b - d` (m).
     pub overlap: f64,
-    /// Shear displacement of this increment [m].
+    /// Shear displacement of this increment (m).
     pub shear_increment: f64,
     /// `1 - (dd . n) / d`: how the rotating tangent scales the shear of a centre displacement.
     pub shear_scale: f64,

@@ -15,22 +15,22 @@ pub enum SlipTangent {
 /// The fixed properties of one contact, set when it is made.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ContactParams {
-    /// `k_n` [N/m] for the linear law, `M` [N/m^1.5] for Hertz.
+    /// `k_n` (N/m) for the linear law, `M` (N/m^1.5) for Hertz.
     pub stiffness: f64,
     /// `kappa = k_s / k_n`.
     pub kappa: f64,
     /// Coulomb friction `f` (`INFINITY`: no slip).
     pub friction: f64,
-    /// Bond strength `F_t` [N] while the bond is intact.
+    /// Bond strength `F_t` (N) while the bond is intact.
     pub strength: f64,
 }
 
 /// What a law returns: the forces and their derivatives.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Response {
-    /// Normal force `F_n` (compression positive) [N].
+    /// Normal force `F_n` (compression positive) (N).
     pub normal_force: f64,
-    /// Shear force `F_s` [N].
+    /// Shear force `F_s` (N).
     pub shear_force: f64,
     /// Whether the return map put the contact on the Coulomb limit.
     pub sliding: bool,

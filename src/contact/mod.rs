@@ -60,17 +60,17 @@ pub struct Contact {
     pub bonded: bool,
     /// Whether it was cemented and the bond broke.
     pub broken: bool,
-    /// Committed shear force at the start of the increment [N].
+    /// Committed shear force at the start of the increment (N).
     pub shear_force0: f64,
-    /// Committed accumulated shear displacement `s_h` at the start of the increment [m].
+    /// Committed accumulated shear displacement `s_h` at the start of the increment (m).
     pub shear_displacement0: f64,
     /// Shear displacement of the increment already made before the contact was (re)made.
     pub shear_offset: f64,
     /// The current response (trial during Newton, converged after it).
     pub response: Response,
-    /// The current overlap `n` [m].
+    /// The current overlap `n` (m).
     pub overlap: f64,
-    /// The current shear displacement of this increment [m].
+    /// The current shear displacement of this increment (m).
     pub shear_increment: f64,
 }
 
@@ -166,7 +166,7 @@ impl ContactSet {
         self.contacts.iter_mut().for_each(Contact::commit);
     }
 
-    /// Mean magnitude of the normal force [N] (the force scale of the convergence test).
+    /// Mean magnitude of the normal force (N) (the force scale of the convergence test).
     pub fn mean_normal_force(&self) -> f64 {
         if self.contacts.is_empty() {
             return 0.0;

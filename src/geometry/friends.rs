@@ -32,7 +32,7 @@ pub struct FriendSet {
     pub reference: Vec<[f64; 2]>,
     /// Wall positions (normal, along) when the list was made.
     pub wall_reference: Vec<[f64; 2]>,
-    /// Gap below which two surfaces are friends [m].
+    /// Gap below which two surfaces are friends (m).
     pub skin: f64,
 }
 

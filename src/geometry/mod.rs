@@ -13,15 +13,15 @@ pub use friends::{gap as gap_between, FriendSet, Pair, Side};
 /// (which would set a floor on the equilibrium residual of large samples).
 #[derive(Debug, Clone, PartialEq)]
 pub struct GrainSet {
-    /// Centres `x_i = origin + displacement` [m] (kept in step with both).
+    /// Centres `x_i = origin + displacement` (m) (kept in step with both).
     pub position: Vec<[f64; 2]>,
-    /// Where each grain started [m]; never changes.
+    /// Where each grain started (m); never changes.
     pub origin: Vec<[f64; 2]>,
-    /// Displacement of each centre since the start [m].
+    /// Displacement of each centre since the start (m).
     pub displacement: Vec<[f64; 2]>,
-    /// Rotations `phi_i` [rad], anticlockwise.
+    /// Rotations `phi_i` (rad), anticlockwise.
     pub rotation: Vec<f64>,
-    /// Radii `r_i` [m].
+    /// Radii `r_i` (m).
     pub radius: Vec<f64>,
 }
 
@@ -61,12 +61,16 @@ impl GrainSet {
 
     /// Move every grain by `step` (one entry per grain).
     pub fn displace(&mut self, step: &[[f64; 2]]) {
-        for i in 0..self.len() {
-            let d = &mut self.displacement[i];
-            d[0] += step[i][0];
-            d[1] += step[i][1];
-            let o = self.origin[i];
-            self.position[i] = [o[0] + d[0], o[1] + d[1]];
+        for (((d, s), o), p) in self
+            .displacement
+            .iter_mut()
+            .zip(step)
+            .zip(&self.origin)
+            .zip(&mut self.position)
+        {
+            d[0] += s[0];
+            d[1] += s[1];
+            *p = [o[0] + d[0], o[1] + d[1]];
         }
     }
 
@@ -126,15 +130,15 @@ pub struct Wall {
     pub normal: [f64; 2],
     /// `normal . point` of the wall at the start.
     pub offset: f64,
-    /// Displacement along the normal since the start [m] (into the sample positive).
+    /// Displacement along the normal since the start (m) (into the sample positive).
     pub position: f64,
-    /// Displacement along the wall since the start [m] (along `tangent()`).
+    /// Displacement along the wall since the start (m) (along `tangent()`).
     pub slide: f64,
     /// Prescribed, or an unknown loaded by a stress.
     pub control: WallControl,
-    /// Applied stress [Pa] (stress-controlled walls).
+    /// Applied stress (Pa) (stress-controlled walls).
     pub stress: f64,
-    /// Fixed loaded length [m]; `None`: the distance between the walls perpendicular to it.
+    /// Fixed loaded length (m); `None`: the distance between the walls perpendicular to it.
     pub length: Option<f64>,
     /// Grain-wall friction `f_gw` (`INFINITY` when glued).
     pub friction: f64,

@@ -7,16 +7,16 @@ use crate::geometry::{GrainSet, Side, WallSet};
 /// Measurements of one state.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Measurements {
-    /// Normal force of the grains on each wall [N].
+    /// Normal force of the grains on each wall (N).
     pub wall_normal_force: Vec<f64>,
-    /// Shear force of the grains on each wall, along its tangent [N].
+    /// Shear force of the grains on each wall, along its tangent (N).
     pub wall_shear_force: Vec<f64>,
-    /// Normal stress on each wall: force / (length * depth) [Pa]; NaN when it has no length.
+    /// Normal stress on each wall: force / (length * depth) (Pa); NaN when it has no length.
     pub wall_stress: Vec<f64>,
-    /// Macro stress `sigma_ij = (1/V) sum_c d_i F_j` (eq. A.41), compression positive [Pa],
+    /// Macro stress `sigma_ij = (1/V) sum_c d_i F_j` (eq. A.41), compression positive (Pa),
     /// over every contact, wall contacts included (their branch runs to the wall line).
     pub macro_stress: [[f64; 2]; 2],
-    /// Volume `V` enclosed by the walls times the depth [m^3]; NaN when the walls do not close.
+    /// Volume `V` enclosed by the walls times the depth (m^3); NaN when the walls do not close.
     pub volume: f64,
     /// Grain-grain contacts.
     pub grain_contacts: usize,

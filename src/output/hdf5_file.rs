@@ -51,9 +51,9 @@ pub struct RunHeader {
     pub solver_text: String,
     /// grainstat version that wrote the file (`env!("CARGO_PKG_VERSION")`).
     pub version: String,
-    /// Depth `D` [m] that turns 2D forces into stresses.
+    /// Depth `D` (m) that turns 2D forces into stresses.
     pub depth: f64,
-    /// Grain radii [m]; they never change, so they are not repeated per increment.
+    /// Grain radii (m); they never change, so they are not repeated per increment.
     pub radius: Vec<f64>,
     /// The static part of each wall, in scene order.
     pub walls: Vec<WallHeader>,
@@ -71,13 +71,13 @@ pub struct WallHeader {
     pub name: String,
     /// Unit normal into the sample.
     pub normal: [f64; 2],
-    /// `normal . point` of the wall at the start [m].
+    /// `normal . point` of the wall at the start (m).
     pub offset: f64,
     /// Displacement- or stress-controlled.
     pub control: WallControl,
     /// Grain-wall friction (`INFINITY` when glued).
     pub friction: f64,
-    /// Fixed loaded length [m], `None` for the distance between the perpendicular walls.
+    /// Fixed loaded length (m), `None` for the distance between the perpendicular walls.
     pub length: Option<f64>,
 }
 

@@ -3,7 +3,7 @@
 //! A scene says *what*; how it is solved is a separate solver file (see [`crate::solver::SolverConfig`]).
 //! Every length is in metres, every stress in pascals, every force in newtons. Loading a scene
 //! checks it completely: unknown keys, wrong types and out-of-range values are
-//! [`InputError`]s that name the file, the key and the line.
+//! [`InputError`](crate::InputError)s that name the file, the key and the line.
 
 mod load;
 mod validate;
@@ -72,10 +72,10 @@ pub enum CohesionRadius {
 pub struct Material {
     /// The contact law.
     pub law: LawKind,
-    /// Normal spring stiffness `k_n` [N/m] (linear law).
+    /// Normal spring stiffness `k_n` (N/m) (linear law).
     #[serde(default)]
     pub normal_stiffness: Option<f64>,
-    /// Shear modulus of the grain material `G_mu` [Pa] (Hertz law).
+    /// Shear modulus of the grain material `G_mu` (Pa) (Hertz law).
     #[serde(default)]
     pub shear_modulus: Option<f64>,
     /// Poisson's ratio of the grain material `nu_mu`; sets `kappa = 3(1-nu)/(2-nu)`.
@@ -84,7 +84,7 @@ pub struct Material {
     /// Grain-grain friction `f_gg = tan(phi_mu)`; `"infinite"` for no slip.
     #[serde(default = "default_friction")]
     pub friction: Friction,
-    /// Cohesion `c_mu` [N/m^2]: bond strength `F_t = c_mu * r^2` (linear law only).
+    /// Cohesion `c_mu` (N/m^2): bond strength `F_t = c_mu * r^2` (linear law only).
     #[serde(default)]
     pub cohesion: f64,
     /// Which radius product the bond strength uses.
@@ -96,7 +96,7 @@ pub struct Material {
     /// Hold every grain's rotation fixed (thesis 3.2.2): 2 unknowns per grain instead of 3.
     #[serde(default)]
     pub fixed_rotations: bool,
-    /// Depth `D` [m] that turns 2D forces into stresses; default: the mean grain diameter.
+    /// Depth `D` (m) that turns 2D forces into stresses; default: the mean grain diameter.
     #[serde(default)]
     pub depth: Option<f64>,
 }
@@ -169,13 +169,13 @@ pub struct GrainSource {
     /// CSV file of `x, y, r` per line (relative to the scene file).
     #[serde(default)]
     pub file: Option<String>,
-    /// Inline x coordinates [m].
+    /// Inline x coordinates (m).
     #[serde(default)]
     pub x: Vec<f64>,
-    /// Inline y coordinates [m].
+    /// Inline y coordinates (m).
     #[serde(default)]
     pub y: Vec<f64>,
-    /// Inline radii [m].
+    /// Inline radii (m).
     #[serde(default)]
     pub r: Vec<f64>,
     /// A regular hexagonal crystal of equal grains.
@@ -193,7 +193,7 @@ pub struct CrystalSpec {
     pub rows: usize,
     /// Grains in a long row.
     pub columns: usize,
-    /// Grain radius [m].
+    /// Grain radius (m).
     pub radius: f64,
     /// Whether the first (bottom) row is a short one.
     #[serde(default = "yes")]
@@ -229,7 +229,7 @@ pub struct WallBox {
     /// displacement-controlled.
     #[serde(default)]
     pub stress_controlled: Vec<String>,
-    /// Stress on the stress-controlled sides at the start [Pa].
+    /// Stress on the stress-controlled sides at the start (Pa).
     #[serde(default)]
     pub stress: f64,
 }
@@ -244,7 +244,7 @@ fn zero_friction() -> Friction {
 pub struct WallSpec {
     /// Name used by the load program.
     pub name: String,
-    /// A point on the wall line [m].
+    /// A point on the wall line (m).
     pub point: [f64; 2],
     /// Normal pointing into the sample (normalised on load).
     pub normal: [f64; 2],
@@ -254,10 +254,10 @@ pub struct WallSpec {
     /// Displacement- or stress-controlled.
     #[serde(default)]
     pub control: WallControl,
-    /// Stress at the start [Pa] (stress-controlled walls).
+    /// Stress at the start (Pa) (stress-controlled walls).
     #[serde(default)]
     pub stress: f64,
-    /// Loaded length [m]; default: the distance between the two walls perpendicular to it.
+    /// Loaded length (m); default: the distance between the two walls perpendicular to it.
     #[serde(default)]
     pub length: Option<f64>,
 }
@@ -271,14 +271,14 @@ pub struct Stage {
     pub name: String,
     /// Number of load increments in this stage.
     pub increments: usize,
-    /// Stress each named stress-controlled wall reaches at the end of the stage [Pa].
+    /// Stress each named stress-controlled wall reaches at the end of the stage (Pa).
     #[serde(default)]
     pub stress: BTreeMap<String, f64>,
     /// Normal displacement (into the sample positive) each named displacement-controlled wall
-    /// makes over the stage [m].
+    /// makes over the stage (m).
     #[serde(default)]
     pub displacement: BTreeMap<String, f64>,
-    /// Tangential displacement each named wall makes over the stage [m] (along the wall, the
+    /// Tangential displacement each named wall makes over the stage (m) (along the wall, the
     /// normal turned 90 degrees anticlockwise).
     #[serde(default)]
     pub shear: BTreeMap<String, f64>,

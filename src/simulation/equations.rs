@@ -12,11 +12,11 @@ use std::time::Instant;
 /// What the load program does to the walls in one (sub-)increment.
 #[derive(Debug, Clone, PartialEq)]
 pub struct LoadStep {
-    /// Normal move of each wall in this step [m] (prescribed walls only).
+    /// Normal move of each wall in this step (m) (prescribed walls only).
     pub normal_move: Vec<f64>,
-    /// Move along each wall in this step [m].
+    /// Move along each wall in this step (m).
     pub slide: Vec<f64>,
-    /// Stress on each wall at the end of this step [Pa] (stress-controlled walls).
+    /// Stress on each wall at the end of this step (Pa) (stress-controlled walls).
     pub stress: Vec<f64>,
 }
 
@@ -63,9 +63,9 @@ pub struct IncrementEquations<'a> {
     pub slip_tangent: SlipTangent,
     /// Whether the tangent must be symmetric (Cholesky).
     pub symmetric: bool,
-    /// Depth `D` [m].
+    /// Depth `D` (m).
     pub depth: f64,
-    /// Mean radius [m]: scales moments and rotations in the norms.
+    /// Mean radius (m): scales moments and rotations in the norms.
     pub r_mean: f64,
     /// Current configuration (workspace).
     pub q: &'a mut Configuration,
@@ -79,7 +79,7 @@ pub struct IncrementEquations<'a> {
     pub stiffness_hint: f64,
     /// Whether Newton is far from the answer (soft tangents get a floor).
     pub far: bool,
-    /// Wall load per grain touching a loaded wall [N]: the force scale before contacts carry.
+    /// Wall load per grain touching a loaded wall (N): the force scale before contacts carry.
     pub load_scale: f64,
 }
 

@@ -26,7 +26,7 @@ pub struct Simulation {
     pub config: SolverConfig,
     /// Contact properties of the material and the walls.
     pub material: MaterialModel,
-    /// Depth `D` [m].
+    /// Depth `D` (m).
     pub depth: f64,
     /// The load program.
     pub stages: Vec<StageProgram>,
@@ -63,7 +63,7 @@ impl TopologyChange {
 }
 
 impl Simulation {
-    /// A simulation from a committed state (a fresh one from [`setup`], or one read back to
+    /// A simulation from a committed state (a fresh one from [`Simulation::new`], or one read back to
     /// resume). The workspace is rebuilt: friends lists from the state's reference positions,
     /// so the pattern is the one the interrupted run had.
     pub fn from_state(
@@ -136,7 +136,7 @@ impl Simulation {
         self.stages.iter().map(|s| s.increments).sum()
     }
 
-    /// Mean grain radius [m].
+    /// Mean grain radius (m).
     pub fn mean_radius(&self) -> f64 {
         self.r_mean
     }
@@ -435,7 +435,7 @@ impl Simulation {
         // Contacts outside the lists cannot happen (they are rebuilt before anything moves far
         // enough), but a bond stretched past the skin would be one: keep it all the same.
         merged.extend(existing);
-        merged.sort_by(|a, b| a.pair.cmp(&b.pair));
+        merged.sort_by_key(|c| c.pair);
         self.state.contacts.contacts = merged;
         self.index_pairs()?;
         self.stats.counters.contacts_made += change.made;

@@ -17,15 +17,15 @@ use crate::{Error, InputError};
 pub struct MaterialModel {
     /// Which law.
     pub law: LawKind,
-    /// `k_n` [N/m] (linear law).
+    /// `k_n` (N/m) (linear law).
     pub normal_stiffness: f64,
-    /// `G_mu` [Pa] (Hertz law).
+    /// `G_mu` (Pa) (Hertz law).
     pub shear_modulus: f64,
     /// `nu_mu`.
     pub poisson: f64,
     /// `f_gg`.
     pub friction: f64,
-    /// `c_mu` [N/m^2].
+    /// `c_mu` (N/m^2).
     pub cohesion: f64,
     /// Radius product of the bond strength.
     pub cohesion_radius: CohesionRadius,
@@ -65,7 +65,7 @@ impl MaterialModel {
         self.law == LawKind::Linear
     }
 
-    /// A typical normal stiffness [N/m]: `k_n`, or the Hertz tangent at an overlap of a
+    /// A typical normal stiffness (N/m): `k_n`, or the Hertz tangent at an overlap of a
     /// thousandth of the radius.
     pub fn stiffness_hint(&self, r_mean: f64) -> f64 {
         match self.law {
@@ -112,9 +112,9 @@ pub struct StageProgram {
     pub increments: usize,
     /// Stress each wall reaches at the end of the stage (`None`: unchanged).
     pub stress: Vec<Option<f64>>,
-    /// Normal move of each wall over the stage [m].
+    /// Normal move of each wall over the stage (m).
     pub normal_move: Vec<f64>,
-    /// Move along each wall over the stage [m].
+    /// Move along each wall over the stage (m).
     pub slide: Vec<f64>,
 }
 

@@ -1,0 +1,22 @@
+# The two commands of the README. Both install Debian's HDF5 library (and h5py, which a
+# test uses to read our files from Python) when pkg-config cannot find it.
+
+.PHONY: run test deps
+
+# The main job: the default scene, from a clean checkout.
+run: deps
+	cargo run --release -- run examples/crystal-biaxial.toml
+
+# The whole test suite, plus the formatting, lint and documentation checks.
+test: deps
+	cargo fmt --check
+	cargo clippy --all-targets -- -D warnings
+	RUSTDOCFLAGS="-D warnings" cargo doc --no-deps
+	cargo test --release
+
+deps:
+	@if ! pkg-config --exists hdf5 2>/dev/null || ! /usr/bin/python3 -c "import h5py" 2>/dev/null; then \
+		echo "installing libhdf5-dev, pkg-config and python3-h5py with apt-get"; \
+		apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq \
+			libhdf5-dev pkg-config python3-h5py >/dev/null; \
+	fi

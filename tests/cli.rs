@@ -1,0 +1,199 @@
+//! The `grainstat` command line: bad input is exit status 2 with file, key and line; a run
+//! writes a result file that `info` reads; `--resume` continues a run to the same state as
+//! an uninterrupted one.
+
+use grainstat::output::{read_increments, read_state};
+use grainstat::samples;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn grainstat(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_grainstat"))
+        .args(args)
+        .output()
+        .expect("grainstat runs")
+}
+
+fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// A small crystal scene written to `dir`.
+fn crystal_scene(dir: &Path, every: usize) -> PathBuf {
+    let mut scene = samples::crystal_biaxial(9, 8, 1e6, 3e6);
+    scene.output.every = every;
+    let path = dir.join("crystal.toml");
+    std::fs::write(&path, toml::to_string(&scene).unwrap()).unwrap();
+    path
+}
+
+fn assert_input_error(out: &Output, expected: &[&str]) {
+    let err = stderr(out);
+    assert_eq!(out.status.code(), Some(2), "exit status of: {err}");
+    assert!(!err.contains("panicked"), "no panic: {err}");
+    for e in expected {
+        assert!(err.contains(e), "`{e}` in: {err}");
+    }
+}
+
+#[test]
+fn bad_scene_files_are_exit_status_2_naming_key_and_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let good = std::fs::read_to_string(crystal_scene(dir.path(), 1)).unwrap();
+
+    let unknown = good.replace("poisson = 0.16", "poisson = 0.16\nfrction = 0.5");
+    let line = unknown
+        .lines()
+        .position(|l| l.starts_with("frction"))
+        .unwrap()
+        + 1;
+    let path = dir.path().join("unknown.toml");
+    std::fs::write(&path, &unknown).unwrap();
+    let out = grainstat(&["run", path.to_str().unwrap()]);
+    assert_input_error(&out, &[&format!("unknown.toml:{line}"), "frction"]);
+
+    let negative = good.replace("radius = 0.0001", "radius = -0.0001");
+    assert_ne!(negative, good, "the scene has the radius line");
+    let path = dir.path().join("negative.toml");
+    std::fs::write(&path, &negative).unwrap();
+    let out = grainstat(&["run", path.to_str().unwrap()]);
+    assert_input_error(&out, &["negative.toml:", "grains.crystal.radius"]);
+
+    let path = dir.path().join("nan.toml");
+    std::fs::write(&path, good.replace("poisson = 0.16", "poisson = nan")).unwrap();
+    let out = grainstat(&["run", path.to_str().unwrap()]);
+    assert_input_error(&out, &["nan.toml:", "material.poisson"]);
+
+    let path = dir.path().join("broken.toml");
+    std::fs::write(&path, "name = \"x\"\n[material\nlaw = 1\n").unwrap();
+    let out = grainstat(&["run", path.to_str().unwrap()]);
+    assert_input_error(&out, &["broken.toml:2"]);
+
+    let out = grainstat(&["run", dir.path().join("missing.toml").to_str().unwrap()]);
+    assert_input_error(&out, &["missing.toml"]);
+}
+
+#[test]
+fn bad_solver_and_grain_files_are_exit_status_2() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = crystal_scene(dir.path(), 1);
+    let solver = dir.path().join("solver.toml");
+    std::fs::write(&solver, "linear = \"cholesky\"\ntolerance = -1.0\n").unwrap();
+    let out = grainstat(&[
+        "run",
+        scene.to_str().unwrap(),
+        "--solver",
+        solver.to_str().unwrap(),
+    ]);
+    assert_input_error(&out, &["solver.toml:2", "tolerance"]);
+
+    let csv = dir.path().join("grains.csv");
+    std::fs::write(&csv, "x,y,r\n0.0,0.0,1e-4\n1e-4,zero,1e-4\n").unwrap();
+    let text = "name = \"csv\"\n[material]\nlaw = \"linear\"\nnormal_stiffness = 1e6\n\
+                [grains]\nfile = \"grains.csv\"\n[box]\nstress_controlled = [\"top\"]\n\
+                [[stages]]\nincrements = 1\nstress = { top = 1e5 }\n";
+    let path = dir.path().join("csv.toml");
+    std::fs::write(&path, text).unwrap();
+    let out = grainstat(&["run", path.to_str().unwrap()]);
+    assert_input_error(&out, &["grains.csv:3"]);
+}
+
+#[test]
+fn a_run_writes_a_result_that_info_reads() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = crystal_scene(dir.path(), 2);
+    let result = dir.path().join("out.h5");
+    let out = grainstat(&[
+        "run",
+        scene.to_str().unwrap(),
+        "-o",
+        result.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    // Increment 0, every second one, and the last.
+    assert_eq!(read_increments(&result).unwrap(), vec![0, 2, 4, 6]);
+    let info = grainstat(&["info", result.to_str().unwrap()]);
+    assert!(info.status.success(), "{}", stderr(&info));
+    let text = String::from_utf8_lossy(&info.stdout);
+    assert!(text.contains("crystal-biaxial"), "{text}");
+    assert!(text.contains("symbolic_factorisations"), "{text}");
+
+    let out = grainstat(&["info", dir.path().join("none.h5").to_str().unwrap()]);
+    assert_input_error(&out, &["none.h5"]);
+}
+
+/// Drop every increment after `keep` from a result file, as a run killed after writing it
+/// would leave it (the later groups lack their `complete` mark).
+fn cut_after(path: &Path, keep: usize) {
+    let file = hdf5::File::open_rw(path).unwrap();
+    let increments = file.group("increments").unwrap();
+    for name in increments.member_names().unwrap() {
+        if name.parse::<usize>().unwrap() > keep {
+            increments
+                .group(&name)
+                .unwrap()
+                .delete_attr("complete")
+                .unwrap();
+        }
+    }
+}
+
+#[test]
+fn resume_reproduces_the_uninterrupted_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = crystal_scene(dir.path(), 1);
+    let whole = dir.path().join("whole.h5");
+    let out = grainstat(&[
+        "run",
+        scene.to_str().unwrap(),
+        "-o",
+        whole.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let last = *read_increments(&whole).unwrap().last().unwrap();
+
+    let resumed = dir.path().join("resumed.h5");
+    std::fs::copy(&whole, &resumed).unwrap();
+    cut_after(&resumed, 3);
+    let out = grainstat(&[
+        "run",
+        scene.to_str().unwrap(),
+        "--resume",
+        resumed.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert_eq!(
+        read_increments(&resumed).unwrap(),
+        read_increments(&whole).unwrap()
+    );
+    for increment in [4, last] {
+        let (_, a) = read_state(&whole, increment).unwrap();
+        let (_, b) = read_state(&resumed, increment).unwrap();
+        assert!(a == b, "increment {increment} differs after resume");
+    }
+
+    // Resuming with another scene, or from nothing, is bad input.
+    let other = dir.path().join("other.toml");
+    let text = std::fs::read_to_string(&scene)
+        .unwrap()
+        .replace("poisson = 0.16", "poisson = 0.2");
+    std::fs::write(&other, text).unwrap();
+    let out = grainstat(&[
+        "run",
+        other.to_str().unwrap(),
+        "--resume",
+        resumed.to_str().unwrap(),
+    ]);
+    assert_input_error(&out, &["other.toml", "differs"]);
+    let missing = dir.path().join("missing.h5");
+    let out = grainstat(&[
+        "run",
+        scene.to_str().unwrap(),
+        "--resume",
+        missing.to_str().unwrap(),
+    ]);
+    assert_input_error(&out, &["missing.h5"]);
+}
