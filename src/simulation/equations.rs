@@ -71,8 +71,8 @@ pub struct IncrementEquations<'a> {
     pub q: &'a mut Configuration,
     /// Contact kinematics (workspace).
     pub kin: &'a mut Vec<Kinematics>,
-    /// Stage timers.
-    pub timers: &'a mut StageTimers,
+    /// Time spent in the return map and in assembly by this set of equations.
+    pub timers: StageTimers,
     /// Force scale of the last evaluation.
     pub f_ref: f64,
     /// Contact stiffness to regularise with when the tangent has none.

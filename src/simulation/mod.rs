@@ -8,14 +8,17 @@ pub use equations::{IncrementEquations, LoadStep};
 pub use setup::{MaterialModel, StageProgram};
 
 use crate::assembly::{DofMap, Pattern};
-use crate::contact::{kinematics, BrokenBond, Configuration, Contact, ContactLaw, Kinematics};
-use crate::geometry::{FriendSet, GrainSet, WallControl};
+use crate::contact::{
+    kinematics, BrokenBond, Configuration, Contact, ContactLaw, ContactSet, Kinematics,
+};
+use crate::geometry::{FriendSet, GrainSet, WallControl, WallSet};
 use crate::measure::measure;
 use crate::solver::newton::{self, NewtonSettings, SystemMatrix};
-use crate::solver::stats::secs;
+use crate::solver::stats::{secs, StageTimers};
 use crate::solver::{Equations, LinearKind, LinearSolver, SolverConfig, SolverStats};
 use crate::state::{IncrementReport, State};
 use crate::NumericError;
+use std::sync::Arc;
 use std::time::Instant;
 
 /// A running simulation: its state, its settings, and the workspace of the solver.
@@ -40,7 +43,7 @@ pub struct Simulation {
     r_mean: f64,
     dofs: DofMap,
     friends: FriendSet,
-    pattern: Pattern,
+    pattern: Arc<Pattern>,
     values: Vec<f64>,
     linear: LinearSolver,
     q: Configuration,
@@ -77,6 +80,25 @@ impl Simulation {
         let law = material.law();
         let r_mean = state.grains.mean_radius();
         let dofs = DofMap::new(state.grains.len(), material.fixed_rotations, &state.walls);
+        // The friends lists as they were when last made, so the pattern is the same.
+        let mut at_reference = state.grains.clone();
+        at_reference.position.clone_from(&state.friends_reference);
+        let mut walls_at_reference = state.walls.clone();
+        for (w, r) in walls_at_reference
+            .walls
+            .iter_mut()
+            .zip(&state.friends_wall_reference)
+        {
+            w.position = r[0];
+            w.slide = r[1];
+        }
+        let friends = friends_around(
+            &at_reference,
+            &walls_at_reference,
+            config.skin * r_mean,
+            &state.contacts,
+        );
+        let pattern = Arc::new(Pattern::build(&friends, &dofs, &state.walls));
         let mut sim = Simulation {
             name,
             linear: LinearSolver::new(config.linear),
@@ -91,38 +113,13 @@ impl Simulation {
             q: Configuration::at_rest(&state.grains, &state.walls),
             kin: Vec::new(),
             pair_index: Vec::new(),
-            pattern: Pattern::build(
-                &FriendSet {
-                    pairs: vec![],
-                    reference: vec![],
-                    wall_reference: vec![],
-                    skin: 0.0,
-                },
-                &dofs,
-                &state.walls,
-            ),
-            friends: FriendSet {
-                pairs: vec![],
-                reference: vec![],
-                wall_reference: vec![],
-                skin: 0.0,
-            },
+            values: vec![0.0; pattern.nnz()],
+            pattern,
+            friends,
             dofs,
-            values: Vec::new(),
             state,
         };
-        let mut at_reference = sim.state.grains.clone();
-        at_reference.position = sim.state.friends_reference.clone();
-        let mut walls_at_reference = sim.state.walls.clone();
-        for (w, r) in walls_at_reference
-            .walls
-            .iter_mut()
-            .zip(&sim.state.friends_wall_reference)
-        {
-            w.position = r[0];
-            w.slide = r[1];
-        }
-        sim.rebuild_friends(&at_reference, &walls_at_reference)?;
+        sim.analyse_pattern()?;
         Ok(sim)
     }
 
@@ -309,7 +306,7 @@ impl Simulation {
             r_mean: self.r_mean,
             q: &mut self.q,
             kin: &mut self.kin,
-            timers: &mut self.stats.timers,
+            timers: StageTimers::default(),
             f_ref: 0.0,
             stiffness_hint: self.material.stiffness_hint(self.r_mean),
             far: false,
@@ -332,31 +329,29 @@ impl Simulation {
             max_step: 0.5 * self.config.skin,
             initial_trust: 1e-2,
         };
+        // The pattern is shared, not copied: the equations read its slots while the matrix
+        // is factorised in it.
+        let pattern = Arc::clone(&self.pattern);
         let mut values = std::mem::take(&mut self.values);
         let mut linear = std::mem::replace(&mut self.linear, LinearSolver::new(self.config.linear));
         let mut stats = self.stats;
-        let symbolic = self.pattern.symbolic.clone();
-        let diagonal = self.pattern.diagonal.clone();
-        let result = {
-            let mut eq = self.equations(step);
-            newton::solve(
-                &mut eq,
-                SystemMatrix {
-                    symbolic: &symbolic,
-                    values: &mut values,
-                    diagonal: &diagonal,
-                },
-                &mut linear,
-                u,
-                &settings,
-                &mut stats,
-            )
-        };
-        // The equations kept their own timers; merge the linear-solver side back.
-        let timers = self.stats.timers;
+        let mut eq = self.equations(step);
+        let result = newton::solve(
+            &mut eq,
+            SystemMatrix {
+                symbolic: &pattern.symbolic,
+                values: &mut values,
+                diagonal: &pattern.diagonal,
+            },
+            &mut linear,
+            u,
+            &settings,
+            &mut stats,
+        );
+        let timers = eq.timers;
+        stats.timers.return_map += timers.return_map;
+        stats.timers.assembly += timers.assembly;
         self.stats = stats;
-        self.stats.timers.return_map = timers.return_map;
-        self.stats.timers.assembly = timers.assembly;
         self.values = values;
         self.linear = linear;
         result
@@ -376,6 +371,7 @@ impl Simulation {
         let mut eq = self.equations(step);
         eq.configure(u);
         eq.update_contacts()?;
+        self.stats.timers.return_map += eq.timers.return_map;
         let start = Instant::now();
         let mut change = TopologyChange::default();
         let increment = self.state.increment + 1;
@@ -445,36 +441,30 @@ impl Simulation {
         Ok(change)
     }
 
-    /// Friends lists around the given positions, with every current contact in them, and the
-    /// pattern and symbolic factorisation that go with them.
-    fn rebuild_friends(
-        &mut self,
-        grains: &GrainSet,
-        walls: &crate::geometry::WallSet,
-    ) -> Result<(), NumericError> {
+    /// Friends lists around the given positions, and the pattern and symbolic factorisation
+    /// that go with them.
+    fn rebuild_friends(&mut self, grains: &GrainSet, walls: &WallSet) -> Result<(), NumericError> {
         let start = Instant::now();
-        let mut friends = FriendSet::build(grains, walls, self.config.skin * self.r_mean);
-        let mut missing: Vec<_> = self
-            .state
-            .contacts
-            .contacts
-            .iter()
-            .map(|c| c.pair)
-            .filter(|p| friends.pairs.binary_search(p).is_err())
-            .collect();
-        if !missing.is_empty() {
-            friends.pairs.append(&mut missing);
-            friends.pairs.sort();
-        }
+        let friends = friends_around(
+            grains,
+            walls,
+            self.config.skin * self.r_mean,
+            &self.state.contacts,
+        );
         self.state.friends_reference.clone_from(&friends.reference);
         self.state
             .friends_wall_reference
             .clone_from(&friends.wall_reference);
         self.friends = friends;
-        self.pattern = Pattern::build(&self.friends, &self.dofs, &self.state.walls);
+        self.pattern = Arc::new(Pattern::build(&self.friends, &self.dofs, &self.state.walls));
         self.values = vec![0.0; self.pattern.nnz()];
         self.stats.counters.friends_rebuilds += 1;
         self.stats.timers.detection += secs(start);
+        self.analyse_pattern()
+    }
+
+    /// Symbolic factorisation of the pattern, and each contact's block in it.
+    fn analyse_pattern(&mut self) -> Result<(), NumericError> {
         self.linear
             .analyse(&self.pattern.symbolic, &mut self.stats)
             .map_err(|e| NumericError::Singular { detail: e.0 })?;
@@ -549,6 +539,29 @@ impl Simulation {
         // Evaluation overwrote the trial responses with the committed ones: same values.
         (rel, worst)
     }
+}
+
+/// Friends lists around the given positions that also hold every contact of `contacts`:
+/// contacts cannot be outside the lists in practice (the lists are rebuilt before anything
+/// moves half the skin), but a bond stretched past the skin would be.
+fn friends_around(
+    grains: &GrainSet,
+    walls: &WallSet,
+    skin: f64,
+    contacts: &ContactSet,
+) -> FriendSet {
+    let mut friends = FriendSet::build(grains, walls, skin);
+    let mut missing: Vec<_> = contacts
+        .contacts
+        .iter()
+        .map(|c| c.pair)
+        .filter(|p| friends.pairs.binary_search(p).is_err())
+        .collect();
+    if !missing.is_empty() {
+        friends.pairs.append(&mut missing);
+        friends.pairs.sort();
+    }
+    friends
 }
 
 #[cfg(test)]

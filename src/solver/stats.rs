@@ -40,7 +40,7 @@ pub struct Counters {
     pub solves: usize,
     /// Topology passes.
     pub topology_passes: usize,
-    /// Friends-list rebuilds.
+    /// Friends-list rebuilds after the first lists.
     pub friends_rebuilds: usize,
     /// Contacts made.
     pub contacts_made: usize,
