@@ -197,3 +197,40 @@ fn resume_reproduces_the_uninterrupted_run() {
     ]);
     assert_input_error(&out, &["missing.h5"]);
 }
+
+#[test]
+fn a_failing_increment_names_itself_and_keeps_the_last_converged_state() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = crystal_scene(dir.path(), 1);
+    // One Newton iteration and no halving cannot reach 1e-12 in the first biaxial increment.
+    let solver = dir.path().join("starved.toml");
+    std::fs::write(
+        &solver,
+        "tolerance = 1e-12\ndisplacement_tolerance = 1e-12\nmax_iterations = 1\nmax_cuts = 0\n",
+    )
+    .unwrap();
+    let result = dir.path().join("failed.h5");
+    let out = grainstat(&[
+        "run",
+        scene.to_str().unwrap(),
+        "--solver",
+        solver.to_str().unwrap(),
+        "-o",
+        result.to_str().unwrap(),
+        "--quiet",
+    ]);
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(3), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    for word in [
+        "increment 1",
+        "residual",
+        "worst grain",
+        "last converged state",
+    ] {
+        assert!(err.contains(word), "`{word}` in: {err}");
+    }
+    // The state before the failing increment is on file, whole.
+    assert_eq!(read_increments(&result).unwrap(), vec![0]);
+    assert!(read_state(&result, 0).is_ok());
+}
