@@ -2,7 +2,7 @@
 //! complete increment, bad files are input errors, and Python can read the layout.
 
 use grainstat::contact::{BreakMode, BrokenBond, Contact, ContactParams, ContactSet, Response};
-use grainstat::geometry::{GrainSet, Pair, Side, Wall, WallControl, WallSet};
+use grainstat::geometry::{Circle, GrainSet, Pair, Side, Wall, WallControl, WallSet};
 use grainstat::measure::Measurements;
 use grainstat::output::{info, read_increments, read_state, read_summary, ResultFile, RunHeader};
 use grainstat::solver::stats::SolverStats;
@@ -30,6 +30,7 @@ fn wall(name: &str, normal: [f64; 2], offset: f64) -> Wall {
         stress: 0.0,
         length: None,
         friction: 0.25,
+        circle: None,
     }
 }
 
@@ -496,4 +497,50 @@ fn python_reads_the_layout() {
         String::from_utf8_lossy(&out.stdout),
         String::from_utf8_lossy(&out.stderr)
     );
+}
+
+#[test]
+fn circular_walls_read_back() {
+    let _guard = serial();
+    let ring = Wall {
+        normal: [0.0; 2],
+        position: 1.5e-6,
+        circle: Some(Circle {
+            center: [1.0, 1.0],
+            radius: 1.25,
+            grains_inside: true,
+        }),
+        ..wall("ring", [0.0; 2], 0.0)
+    };
+    let plug = Wall {
+        circle: Some(Circle {
+            center: [1.0, 1.0],
+            radius: 0.25,
+            grains_inside: false,
+        }),
+        ..ring.clone()
+    };
+    let walls = WallSet {
+        walls: vec![ring, plug],
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("circles.h5");
+    let mut state = state(1);
+    state.walls = walls;
+    state.friends_wall_reference = vec![[0.0; 2]; 2];
+    state
+        .contacts
+        .contacts
+        .retain(|c| matches!(c.pair.a, Side::Grain(_)));
+    let header = RunHeader {
+        walls: RunHeader::walls_of(&state.walls),
+        ..header(&state)
+    };
+    let mut file = ResultFile::create(&path, &header).unwrap();
+    file.write_increment(&state, &report(&state), &SolverStats::default())
+        .unwrap();
+    drop(file);
+    let (back_header, back) = read_state(&path, 1).unwrap();
+    assert_eq!(back_header.walls, header.walls);
+    assert_eq!(back.walls, state.walls);
 }

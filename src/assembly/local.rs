@@ -47,7 +47,7 @@ pub fn contact_block(k: &Kinematics, r: &Response, map: &PairMap, symmetric: boo
                 r.dfn_dn * bn[a] * bn[b] + r.dfs_dn * bt[a] * bn[b] + r.dfs_ds * bt[a] * s[b];
         }
     }
-    if !k.wall {
+    if !k.flat {
         // Geometric terms on the centre entries: blocks [[-X, X], [X, -X]] for G and
         // [[X, -X], [-X, X]] for H, with X the 2x2 term.
         let d = k.distance;

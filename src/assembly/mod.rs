@@ -67,13 +67,14 @@ impl DofMap {
 
     /// The reduced unknowns of a pair and, for each of the 6 local entries
     /// `[xa, ya, phia, xb, yb, phib]`, which reduced unknown it feeds and with what weight.
-    pub fn pair_map(&self, pair: Pair, walls: &WallSet) -> PairMap {
+    /// A wall's unknown (its move into the sample) feeds `xa, ya` along the contact normal `n`:
+    /// moving it by `s` changes the overlap by `s`, as moving a grain `a` by `s n` would.
+    pub fn pair_map(&self, pair: Pair, n: [f64; 2]) -> PairMap {
         let mut m = PairMap::default();
         match pair.a {
             Side::Grain(a) => m.push_grain(self, a, 0),
             Side::Wall(w) => {
                 if let Some(dof) = self.wall[w] {
-                    let n = walls.walls[w].normal;
                     let k = m.add(dof);
                     m.feeds[0] = Some((k, n[0]));
                     m.feeds[1] = Some((k, n[1]));
@@ -134,10 +135,11 @@ impl Pattern {
     pub fn build(friends: &FriendSet, dofs: &DofMap, walls: &WallSet) -> Pattern {
         let n = dofs.len;
         let mut columns: Vec<Vec<usize>> = (0..n).map(|j| vec![j]).collect();
+        // Only the unknowns matter here, not the weights.
         let maps: Vec<PairMap> = friends
             .pairs
             .iter()
-            .map(|p| dofs.pair_map(*p, walls))
+            .map(|p| dofs.pair_map(*p, [0.0; 2]))
             .collect();
         for m in &maps {
             for &c in &m.dofs[..m.len] {

@@ -13,7 +13,7 @@ pub struct Configuration {
     pub displacement: Vec<[f64; 2]>,
     /// Rotation since the start of the increment.
     pub rotation: Vec<f64>,
-    /// Current wall line constants `offset + position`.
+    /// Current wall surface constants: `offset + position` of a line, the radius of a circle.
     pub wall_line: Vec<f64>,
     /// Wall displacement vector since the start of the increment.
     pub wall_displacement: Vec<[f64; 2]>,
@@ -26,7 +26,7 @@ impl Configuration {
             position: grains.position.clone(),
             displacement: vec![[0.0; 2]; grains.len()],
             rotation: vec![0.0; grains.len()],
-            wall_line: walls.walls.iter().map(|w| w.offset + w.position).collect(),
+            wall_line: walls.walls.iter().map(|w| w.surface(w.position)).collect(),
             wall_displacement: vec![[0.0; 2]; walls.len()],
         }
     }
@@ -39,7 +39,8 @@ pub struct Kinematics {
     pub normal: [f64; 2],
     /// Unit tangent: the normal turned 90 degrees anticlockwise.
     pub tangent: [f64; 2],
-    /// Centre distance (grain-grain) or centre-to-wall distance (wall) (m).
+    /// Centre distance (grain-grain), centre-to-wall distance (line), or the distance from a
+    /// circle's centre, negative for a ring (concave), where it sets the geometric terms (m).
     pub distance: f64,
     /// Overlap `n = r_a + r_b - d` (m).
     pub overlap: f64,
@@ -51,8 +52,8 @@ pub struct Kinematics {
     pub radius_a: f64,
     /// Radius of side `b`.
     pub radius_b: f64,
-    /// Whether side `a` is a wall.
-    pub wall: bool,
+    /// Whether the contact normal is fixed (a straight wall): no geometric terms.
+    pub flat: bool,
 }
 
 /// Kinematics of `pair` in configuration `q`, whose increments are taken from the committed
@@ -82,15 +83,44 @@ pub fn kinematics(pair: Pair, grains: &GrainSet, walls: &WallSet, q: &Configurat
                 shear_scale: 1.0 - (dd[0] * n[0] + dd[1] * n[1]) / len,
                 radius_a: ra,
                 radius_b: rb,
-                wall: false,
+                flat: false,
             }
         }
         Side::Wall(w) => {
-            let n = walls.walls[w].normal;
-            let t = [-n[1], n[0]];
             let wall = &walls.walls[w];
-            let uw = q.wall_displacement[w];
             let (ob, db) = (grains.origin[b], grains.displacement[b]);
+            if let Some(circle) = &wall.circle {
+                // Like a contact with a fixed disc whose radius is the wall's: the normal turns
+                // as the grain moves, the other way round inside a ring.
+                let c = circle.center;
+                let d = [
+                    (ob[0] - c[0]) + (db[0] + ub[0]),
+                    (ob[1] - c[1]) + (db[1] + ub[1]),
+                ];
+                let len = d[0].hypot(d[1]);
+                let e = [d[0] / len, d[1] / len];
+                let radius = q.wall_line[w];
+                let (n, distance, overlap) = if circle.grains_inside {
+                    ([-e[0], -e[1]], -len, rb + len - radius)
+                } else {
+                    (e, len, radius + rb - len)
+                };
+                let t = [-n[1], n[0]];
+                return Kinematics {
+                    normal: n,
+                    tangent: t,
+                    distance,
+                    overlap,
+                    shear_increment: ub[0] * t[0] + ub[1] * t[1] - rb * q.rotation[b],
+                    shear_scale: 1.0 - (ub[0] * n[0] + ub[1] * n[1]) / distance,
+                    radius_a: 0.0,
+                    radius_b: rb,
+                    flat: false,
+                };
+            }
+            let n = wall.normal;
+            let t = [-n[1], n[0]];
+            let uw = q.wall_displacement[w];
             let dist = (n[0] * ob[0] + n[1] * ob[1] - wall.offset)
                 + (n[0] * db[0] + n[1] * db[1] - wall.position)
                 + (n[0] * (ub[0] - uw[0]) + n[1] * (ub[1] - uw[1]));
@@ -104,7 +134,7 @@ pub fn kinematics(pair: Pair, grains: &GrainSet, walls: &WallSet, q: &Configurat
                 shear_scale: 1.0,
                 radius_a: 0.0,
                 radius_b: rb,
-                wall: true,
+                flat: true,
             }
         }
     }

@@ -120,8 +120,32 @@ impl GrainSet {
 /// How a wall's normal position is governed.
 pub use crate::scene::WallControl;
 
-/// A straight rigid wall: the line `normal . x = offset + position`, grains on the side the
-/// normal points to. It moves along its normal (`position`) and along itself (`slide`).
+/// The circle of a circular wall: a ring with the grains inside it (an outer confinement) or
+/// a plug with the grains outside it (a rigid borehole core, a support, a loading point).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Circle {
+    /// Centre (m).
+    pub center: [f64; 2],
+    /// Radius at the start (m).
+    pub radius: f64,
+    /// Whether the grains are inside the circle (a ring) or outside it (a plug).
+    pub grains_inside: bool,
+}
+
+impl Circle {
+    /// How the radius changes when the wall moves into the sample: +1 for a plug, -1 for a ring.
+    pub fn sign(&self) -> f64 {
+        if self.grains_inside {
+            -1.0
+        } else {
+            1.0
+        }
+    }
+}
+
+/// A rigid wall: a straight line `normal . x = offset + position` with the grains on the side
+/// the normal points to, or a circle. A line moves along its normal (`position`) and along
+/// itself (`slide`); a circle grows or shrinks (`position`, into the sample positive).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Wall {
     /// Name from the scene.
@@ -142,27 +166,49 @@ pub struct Wall {
     pub length: Option<f64>,
     /// Grain-wall friction `f_gw` (`INFINITY` when glued).
     pub friction: f64,
+    /// The circle of a circular wall (`normal` and `offset` then unused).
+    pub circle: Option<Circle>,
 }
 
 impl Wall {
+    /// The wall's surface constant after moving `position` into the sample: the line constant
+    /// `offset + position`, or the circle's current radius.
+    pub fn surface(&self, position: f64) -> f64 {
+        match &self.circle {
+            Some(c) => c.radius + c.sign() * position,
+            None => self.offset + position,
+        }
+    }
+
     /// The direction along the wall: the normal turned 90 degrees anticlockwise.
     pub fn tangent(&self) -> [f64; 2] {
         [-self.normal[1], self.normal[0]]
     }
 
-    /// Signed distance from the wall line to a point (positive on the sample side).
+    /// Signed distance from the wall's surface to a point (positive on the sample side).
     pub fn distance(&self, x: [f64; 2]) -> f64 {
-        self.normal[0] * x[0] + self.normal[1] * x[1] - self.offset - self.position
+        let surface = self.surface(self.position);
+        match &self.circle {
+            Some(c) => {
+                let from_center = (x[0] - c.center[0]).hypot(x[1] - c.center[1]);
+                -c.sign() * (surface - from_center)
+            }
+            None => self.normal[0] * x[0] + self.normal[1] * x[1] - surface,
+        }
     }
 
-    /// Whether two walls face each other (opposite normals).
+    /// Whether two straight walls face each other (opposite normals).
     pub fn faces(&self, other: &Wall) -> bool {
-        self.normal[0] * other.normal[0] + self.normal[1] * other.normal[1] < -0.999
+        self.circle.is_none()
+            && other.circle.is_none()
+            && self.normal[0] * other.normal[0] + self.normal[1] * other.normal[1] < -0.999
     }
 
-    /// Whether two walls are perpendicular.
+    /// Whether two straight walls are perpendicular.
     pub fn perpendicular_to(&self, other: &Wall) -> bool {
-        (self.normal[0] * other.normal[0] + self.normal[1] * other.normal[1]).abs() < 1e-3
+        self.circle.is_none()
+            && other.circle.is_none()
+            && (self.normal[0] * other.normal[0] + self.normal[1] * other.normal[1]).abs() < 1e-3
     }
 }
 
@@ -208,27 +254,51 @@ impl WallSet {
         -(wa.offset + wa.position + wb.offset + wb.position)
     }
 
-    /// Loaded length of wall `w` now: its fixed length or the gap between its span walls.
+    /// Loaded length of wall `w` now: its fixed length, a circle's circumference, or the gap
+    /// between its span walls.
     pub fn length(&self, w: usize) -> Option<f64> {
-        match self.walls[w].length {
-            Some(l) => Some(l),
-            None => self.span_walls(w).map(|(a, b)| self.gap(a, b)),
+        let wall = &self.walls[w];
+        match (wall.length, &wall.circle) {
+            (Some(l), _) => Some(l),
+            (None, Some(_)) => Some(2.0 * std::f64::consts::PI * wall.surface(wall.position)),
+            (None, None) => self.span_walls(w).map(|(a, b)| self.gap(a, b)),
         }
     }
 
-    /// Area enclosed by the walls, when they form a closed convex polygon (the intersection of
-    /// their half-planes, taken in the order of their normals' angles).
+    /// Area enclosed by the walls: inside a ring, or inside the convex polygon of the straight
+    /// walls, less the plugs in it.
     pub fn enclosed_area(&self) -> Option<f64> {
-        if self.walls.len() < 3 {
+        let circle_area = |w: &Wall| std::f64::consts::PI * w.surface(w.position).powi(2);
+        let plugs: f64 = self
+            .walls
+            .iter()
+            .filter(|w| w.circle.is_some_and(|c| !c.grains_inside))
+            .map(circle_area)
+            .sum();
+        if let Some(ring) = self
+            .walls
+            .iter()
+            .find(|w| w.circle.is_some_and(|c| c.grains_inside))
+        {
+            return Some(circle_area(ring) - plugs);
+        }
+        self.polygon_area().map(|a| a - plugs)
+    }
+
+    /// Area of the convex polygon that the straight walls close (the intersection of their
+    /// half-planes, taken in the order of their normals' angles).
+    fn polygon_area(&self) -> Option<f64> {
+        let lines: Vec<&Wall> = self.walls.iter().filter(|w| w.circle.is_none()).collect();
+        if lines.len() < 3 {
             return None;
         }
-        let mut order: Vec<usize> = (0..self.walls.len()).collect();
+        let mut order: Vec<usize> = (0..lines.len()).collect();
         let angle = |w: &Wall| w.normal[1].atan2(w.normal[0]);
-        order.sort_by(|&a, &b| angle(&self.walls[a]).total_cmp(&angle(&self.walls[b])));
+        order.sort_by(|&a, &b| angle(lines[a]).total_cmp(&angle(lines[b])));
         let mut corners = Vec::with_capacity(order.len());
         for k in 0..order.len() {
-            let a = &self.walls[order[k]];
-            let b = &self.walls[order[(k + 1) % order.len()]];
+            let a = lines[order[k]];
+            let b = lines[order[(k + 1) % order.len()]];
             let det = a.normal[0] * b.normal[1] - a.normal[1] * b.normal[0];
             if det.abs() < 1e-9 {
                 return None;

@@ -47,12 +47,17 @@ pub fn measure(
     for c in &contacts.contacts {
         let k = kinematics(c.pair, grains, walls, &q);
         let (fn_, fs) = (c.response.normal_force, c.response.shear_force);
-        // Force on side b: F_n n - F_s t; branch from a's centre (or the wall line) to b's centre.
+        // Force on side b: F_n n - F_s t; branch from a's centre, or from the contact point on
+        // a wall's surface, to b's centre.
         let force = [
             fn_ * k.normal[0] - fs * k.tangent[0],
             fn_ * k.normal[1] - fs * k.tangent[1],
         ];
-        let branch = [k.distance * k.normal[0], k.distance * k.normal[1]];
+        let arm = match c.pair.a {
+            Side::Grain(_) => k.distance,
+            Side::Wall(_) => k.radius_b - k.overlap,
+        };
+        let branch = [arm * k.normal[0], arm * k.normal[1]];
         for (i, row) in sum.iter_mut().enumerate() {
             for (j, s) in row.iter_mut().enumerate() {
                 *s += branch[i] * force[j];

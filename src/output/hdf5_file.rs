@@ -18,7 +18,7 @@ use ndarray::{s, Array1, ArrayView, ArrayView1, ArrayView2};
 
 use crate::contact::{BreakMode, BrokenBond, Contact, ContactParams, ContactSet, Response};
 use crate::error::{Error, InputError};
-use crate::geometry::{GrainSet, Pair, Side, Wall, WallControl, WallSet};
+use crate::geometry::{Circle, GrainSet, Pair, Side, Wall, WallControl, WallSet};
 use crate::solver::stats::{Counters, SolverStats, StageTimers};
 use crate::state::{IncrementReport, State};
 
@@ -79,6 +79,8 @@ pub struct WallHeader {
     pub friction: f64,
     /// Fixed loaded length (m), `None` for the distance between the perpendicular walls.
     pub length: Option<f64>,
+    /// The circle of a circular wall.
+    pub circle: Option<Circle>,
 }
 
 impl WallHeader {
@@ -91,6 +93,7 @@ impl WallHeader {
             control: wall.control,
             friction: wall.friction,
             length: wall.length,
+            circle: wall.circle,
         }
     }
 
@@ -106,6 +109,7 @@ impl WallHeader {
             stress,
             length: self.length,
             friction: self.friction,
+            circle: self.circle,
         }
     }
 }
@@ -823,6 +827,21 @@ fn write_header(file: &File, h: &RunHeader) -> R<()> {
         .map(|w| w.length.unwrap_or(f64::NAN))
         .collect();
     put(&walls, "length", ArrayView1::from(&length[..]))?;
+    // Circles as centre x, centre y, radius, grains inside (1) or outside (0); NaN for lines.
+    let circle: Vec<[f64; 4]> = h
+        .walls
+        .iter()
+        .map(|w| match w.circle {
+            Some(c) => [
+                c.center[0],
+                c.center[1],
+                c.radius,
+                c.grains_inside as u8 as f64,
+            ],
+            None => [f64::NAN; 4],
+        })
+        .collect();
+    put(&walls, "circle", ArrayView2::from(&circle[..]))?;
     Ok(())
 }
 
@@ -852,6 +871,7 @@ fn read_header(file: &File) -> R<RunHeader> {
     let control = read_vec::<VarLenUnicode>(&walls, "control", Some(w))?;
     let friction = read_vec::<f64>(&walls, "friction", Some(w))?;
     let length = read_vec::<f64>(&walls, "length", Some(w))?;
+    let circle = read_rows::<f64, 4>(&walls, "circle", Some(w))?;
     let walls = (0..w)
         .map(|k| {
             let control = match control[k].as_str() {
@@ -866,6 +886,11 @@ fn read_header(file: &File) -> R<RunHeader> {
                 control,
                 friction: friction[k],
                 length: (!length[k].is_nan()).then_some(length[k]),
+                circle: (!circle[k][2].is_nan()).then_some(Circle {
+                    center: [circle[k][0], circle[k][1]],
+                    radius: circle[k][2],
+                    grains_inside: circle[k][3] != 0.0,
+                }),
             })
         })
         .collect::<R<Vec<_>>>()?;

@@ -102,11 +102,15 @@ impl IncrementEquations<'_> {
             };
             let t = wall.tangent();
             let s = self.step.slide[w];
-            self.q.wall_line[w] = wall.offset + wall.position + normal_move;
-            self.q.wall_displacement[w] = [
-                normal_move * wall.normal[0] + s * t[0],
-                normal_move * wall.normal[1] + s * t[1],
-            ];
+            self.q.wall_line[w] = wall.surface(wall.position + normal_move);
+            // A circle's centre stays; a line moves along its normal and along itself.
+            self.q.wall_displacement[w] = match wall.circle {
+                Some(_) => [0.0; 2],
+                None => [
+                    normal_move * wall.normal[0] + s * t[0],
+                    normal_move * wall.normal[1] + s * t[1],
+                ],
+            };
         }
     }
 
@@ -150,11 +154,14 @@ impl IncrementEquations<'_> {
         Ok(())
     }
 
-    /// Current loaded length of wall `w`.
+    /// Current loaded length of wall `w`: fixed, a circle's circumference, or the gap between
+    /// the walls that bound it.
     fn wall_length(&self, w: usize) -> f64 {
-        match self.walls.walls[w].length {
-            Some(l) => l,
-            None => match self.walls.span_walls(w) {
+        let wall = &self.walls.walls[w];
+        match (wall.length, wall.circle) {
+            (Some(l), _) => l,
+            (None, Some(_)) => 2.0 * std::f64::consts::PI * self.q.wall_line[w],
+            (None, None) => match self.walls.span_walls(w) {
                 Some((a, b)) => -(self.q.wall_line[a] + self.q.wall_line[b]),
                 None => 0.0,
             },
@@ -183,13 +190,20 @@ impl Equations for IncrementEquations<'_> {
                 let load = sigma * self.wall_length(w) * self.depth;
                 residual[dof] += load;
                 sum_ext += load.abs();
-                if let (Some(t), false, None) =
-                    (tangent.as_deref_mut(), self.symmetric, wall.length)
-                {
-                    // dL/d(position of a span wall) = -1, so K = -dR/du = sigma * D.
-                    for &(_, _, slot) in self.pattern.couplings.iter().filter(|c| c.0 == dof) {
-                        t[slot] += sigma * self.depth;
+                match (tangent.as_deref_mut(), wall.length, wall.circle) {
+                    // A circle's circumference follows its own radius: dL/ds = 2 pi sign.
+                    (Some(t), None, Some(c)) => {
+                        let slot = self.pattern.diagonal[dof];
+                        t[slot] -= sigma * self.depth * 2.0 * std::f64::consts::PI * c.sign();
                     }
+                    // dL/d(position of a span wall) = -1, so K = -dR/du = sigma * D: the only
+                    // unsymmetric term of the walls, left out of a symmetric tangent.
+                    (Some(t), None, None) if !self.symmetric => {
+                        for &(_, _, slot) in self.pattern.couplings.iter().filter(|c| c.0 == dof) {
+                            t[slot] += sigma * self.depth;
+                        }
+                    }
+                    _ => {}
                 }
             }
         }
@@ -206,7 +220,7 @@ impl Equations for IncrementEquations<'_> {
         for (idx, c) in self.contacts.iter().enumerate() {
             sum_fn += c.response.normal_force.abs();
             let p = self.pair_index[idx];
-            let map = self.dofs.pair_map(c.pair, self.walls);
+            let map = self.dofs.pair_map(c.pair, self.kin[idx].normal);
             let block = contact_block(&self.kin[idx], &c.response, &map, self.symmetric);
             for a in 0..map.len {
                 residual[map.dofs[a]] += block.force[a];

@@ -398,7 +398,10 @@ impl Simulation {
         current.position.clone_from(&self.q.position);
         let mut walls_now = self.state.walls.clone();
         for (w, wall) in walls_now.walls.iter_mut().enumerate() {
-            wall.position = self.q.wall_line[w] - wall.offset;
+            wall.position += match self.dofs.wall[w] {
+                Some(dof) => u[dof],
+                None => step.normal_move[w],
+            };
             wall.slide += step.slide[w];
         }
         self.stats.timers.topology += secs(start);

@@ -146,6 +146,7 @@ pub fn build_walls(scene: &Scene, grains: &GrainSet, file: &str) -> Result<WallS
                 stress: if stress_side { b.stress } else { 0.0 },
                 length: None,
                 friction: b.friction.value(),
+                circle: None,
             });
         }
     }
@@ -162,6 +163,7 @@ pub fn build_walls(scene: &Scene, grains: &GrainSet, file: &str) -> Result<WallS
             stress: spec.stress,
             length: spec.length,
             friction: spec.friction.value(),
+            circle: None,
         });
     }
     let set = WallSet { walls };
