@@ -33,6 +33,7 @@ pub mod geometry;
 pub mod measure;
 pub mod output;
 pub mod run;
+pub mod sample;
 pub mod samples;
 pub mod scene;
 pub mod simulation;

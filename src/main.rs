@@ -3,7 +3,10 @@
 use clap::{Parser, Subcommand};
 use grainstat::output::{info, ResultFile};
 use grainstat::run::{header, initial_report, run_to_end};
+use grainstat::sample::prepare::{prepare, PrepareSpec};
+use grainstat::sample::{write_csv, write_sample};
 use grainstat::scene::{build_grains, load_scene, load_solver, parse_scene};
+use grainstat::simulation::MaterialModel;
 use grainstat::simulation::Simulation;
 use grainstat::solver::SolverConfig;
 use grainstat::state::IncrementReport;
@@ -49,6 +52,30 @@ enum Command {
         #[arg(long)]
         quiet: bool,
     },
+    /// Prepare a sample as the scene's `[sample]` section says: radii from the size
+    /// distribution, grains sprinkled into the region and grown to the target isotropic
+    /// stress with the friction lowered to f_gg', brought to exact equilibrium, friction raised
+    /// to the material's, bonds made for a cemented material.
+    #[command(
+        after_help = "Examples:\n  grainstat generate examples/sample-sand.toml -o samples/sand.h5\n  \
+        grainstat generate examples/sample-sand.toml -o samples/sand.h5 --csv samples/sand.csv"
+    )]
+    Generate {
+        /// Scene file (TOML) with a `[sample]` section.
+        scene: PathBuf,
+        /// Sample file to write (HDF5).
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Also write the grains as `x,y,r` CSV (for other DEM codes).
+        #[arg(long)]
+        csv: Option<PathBuf>,
+        /// Solver settings (TOML) for the final equilibrium.
+        #[arg(long)]
+        solver: Option<PathBuf>,
+        /// No progress bar and no summary.
+        #[arg(long)]
+        quiet: bool,
+    },
     /// Summarise a result file: scene, increments written, last stresses, timers, counters.
     #[command(after_help = "Example:\n  grainstat info results/crystal-biaxial.h5")]
     Info {
@@ -68,6 +95,13 @@ fn main() -> ExitCode {
             threads,
             quiet,
         } => run(&scene, solver.as_deref(), output, resume, threads, quiet),
+        Command::Generate {
+            scene,
+            output,
+            csv,
+            solver,
+            quiet,
+        } => generate(&scene, &output, csv.as_deref(), solver.as_deref(), quiet),
         Command::Info { file } => info(&file).map(|text| print!("{text}")),
     };
     match result {
@@ -81,6 +115,89 @@ fn main() -> ExitCode {
             })
         }
     }
+}
+
+/// Solver settings from a file, or the defaults (and their TOML, stored with the results).
+fn solver_settings(path: Option<&Path>) -> Result<(SolverConfig, String), Error> {
+    match path {
+        Some(p) => Ok(load_solver(p)?),
+        None => {
+            let config = SolverConfig::default();
+            let text = toml::to_string(&config).map_err(|e| Error::io("solver settings", e))?;
+            Ok((config, text))
+        }
+    }
+}
+
+fn generate(
+    scene_path: &Path,
+    output: &Path,
+    csv: Option<&Path>,
+    solver_path: Option<&Path>,
+    quiet: bool,
+) -> Result<(), Error> {
+    let scene_file = scene_path.display().to_string();
+    let (scene, _) = load_scene(scene_path)?;
+    let (config, _) = solver_settings(solver_path)?;
+    let Some(spec) = &scene.sample else {
+        return Err(InputError::new(
+            &scene_file,
+            "the scene has no `[sample]` section to say what to prepare",
+        )
+        .at_key("sample")
+        .into());
+    };
+    let spec = PrepareSpec {
+        shape: spec.region,
+        aspect: spec.aspect(),
+        grains: spec.grains,
+        distribution: spec.distribution,
+        seed: spec.seed,
+        friction: spec.friction,
+        stress: spec.stress,
+        start_fraction: spec.start_fraction,
+        solid_fraction: spec.solid_fraction,
+        depth: scene.material.depth,
+    };
+    let material = MaterialModel::from_scene(&scene);
+    let bar = if quiet {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::new(1)
+    };
+    bar.set_style(
+        ProgressStyle::with_template("{bar:30} growing: step {pos}/{len} {elapsed} {msg}")
+            .expect("valid template"),
+    );
+    let start = std::time::Instant::now();
+    let prepared = prepare(&spec, &material, &config, &scene_file, |step, steps| {
+        bar.set_length(steps as u64);
+        bar.set_position(step as u64);
+    });
+    bar.finish_and_clear();
+    let prepared = prepared?;
+    write_sample(output, &prepared.sample)?;
+    if let Some(csv) = csv {
+        write_csv(csv, &prepared.sample.grains)?;
+    }
+    if !quiet {
+        let m = &prepared.measurements;
+        let walls: Vec<String> = m.wall_stress.iter().map(|s| format!("{s:.4e}")).collect();
+        eprintln!(
+            "{} grains in {:.1} s ({} growth steps, residual {:.1e}); {:.3} contacts per grain \
+             (walls excluded); wall stresses [{}] Pa; macro xx {:.4e} yy {:.4e} Pa\nsample: {}",
+            prepared.sample.grains.len(),
+            start.elapsed().as_secs_f64(),
+            prepared.growth.steps,
+            prepared.residual,
+            m.contacts_per_grain,
+            walls.join(", "),
+            m.macro_stress[0][0],
+            m.macro_stress[1][1],
+            output.display()
+        );
+    }
+    Ok(())
 }
 
 fn run(
@@ -97,14 +214,16 @@ fn run(
         .map_err(|e| Error::io("thread pool", e))?;
     let scene_file = scene_path.display().to_string();
     let (scene, scene_text) = load_scene(scene_path)?;
-    let (config, solver_text) = match solver_path {
-        Some(p) => load_solver(p)?,
-        None => {
-            let config = SolverConfig::default();
-            let text = toml::to_string(&config).map_err(|e| Error::io("solver settings", e))?;
-            (config, text)
-        }
-    };
+    let (config, solver_text) = solver_settings(solver_path)?;
+    if scene.sample.is_some() {
+        return Err(InputError::new(
+            &scene_file,
+            "this scene prepares a sample: run `grainstat generate` on it, then start a test \
+             scene from the sample with `[grains] sample = \"SAMPLE.h5\"`",
+        )
+        .at_key("sample")
+        .into());
+    }
 
     let (mut sim, mut file) = match &resume {
         Some(path) => {

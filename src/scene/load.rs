@@ -8,7 +8,7 @@
 
 use super::validate::{grain_problems, validate};
 use super::{GrainSource, Scene};
-use crate::error::InputError;
+use crate::error::{Error, InputError};
 use crate::geometry::GrainSet;
 use crate::solver::SolverConfig;
 use serde::de::DeserializeOwned;
@@ -43,9 +43,10 @@ pub fn parse_solver(text: &str, file: &str) -> Result<SolverConfig, InputError> 
     parse_checked(text, file, SolverConfig::validate)
 }
 
-/// The grains of a scene: inline lists, a CSV file (relative to `base_dir`, usually the
-/// scene file's folder) or a hexagonal crystal. Problems with the source itself are reported
-/// against `scene_file`; problems inside the CSV against the CSV file and its line.
+/// The grains of a scene: inline lists, a CSV file or a sample file (both relative to
+/// `base_dir`, usually the scene file's folder) or a hexagonal crystal. Problems with the
+/// source itself are reported against `scene_file`; problems inside the CSV against the CSV
+/// file and its line, problems with a sample file against that file.
 pub fn build_grains(
     source: &GrainSource,
     base_dir: &Path,
@@ -56,9 +57,18 @@ pub fn build_grains(
         return Err(InputError::new(scene_file, message).at_key(key));
     }
     if let Some(file) = &source.file {
-        let path = base_dir.join(file);
-        let (text, name) = read_text(&path, "grain")?;
-        parse_grain_csv(&text, &name)
+        read_grain_csv(&base_dir.join(file))
+    } else if let Some(sample) = &source.sample {
+        // The grains exactly as saved: origin, displacement and rotation included.
+        crate::sample::read_sample(base_dir.join(sample))
+            .map(|s| s.grains)
+            .map_err(|e| match e {
+                Error::Input(e) => e,
+                Error::Io { path, message } => InputError::new(path, message),
+                Error::Numeric(e) => {
+                    InputError::new(base_dir.join(sample).display().to_string(), e.to_string())
+                }
+            })
     } else if let Some(c) = &source.crystal {
         Ok(crate::samples::hex_crystal(
             c.rows,
@@ -70,6 +80,12 @@ pub fn build_grains(
         let position = source.x.iter().zip(&source.y).map(|(&x, &y)| [x, y]);
         Ok(GrainSet::new(position.collect(), source.r.clone()))
     }
+}
+
+/// Grains from a CSV file of `x, y, r` lines; problems name the file and the line.
+pub(crate) fn read_grain_csv(path: &Path) -> Result<GrainSet, InputError> {
+    let (text, name) = read_text(path, "grain")?;
+    parse_grain_csv(&text, &name)
 }
 
 fn read_text(path: &Path, what: &str) -> Result<(String, String), InputError> {

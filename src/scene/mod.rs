@@ -8,6 +8,7 @@
 mod load;
 mod validate;
 
+pub(crate) use load::read_grain_csv;
 pub use load::{build_grains, load_scene, load_solver, parse_scene, parse_solver};
 
 use serde::{Deserialize, Deserializer, Serialize};
@@ -25,8 +26,13 @@ pub struct Scene {
     pub description: String,
     /// Grain material and contact law.
     pub material: Material,
-    /// Where the grains are.
+    /// Where the grains are (absent in a scene that only prepares a sample).
+    #[serde(default)]
     pub grains: GrainSource,
+    /// How to prepare a sample (`grainstat generate`): region, size distribution, grain count,
+    /// seed, `f_gg'` and target stress.
+    #[serde(default)]
+    pub sample: Option<SampleSpec>,
     /// Four walls around the grains' bounding box (bottom, right, top, left), if wanted.
     #[serde(default, rename = "box")]
     pub wall_box: Option<WallBox>,
@@ -162,7 +168,8 @@ impl<'de> Deserialize<'de> for Friction {
     }
 }
 
-/// Where the grains come from: a CSV file, inline lists, or a hexagonal crystal.
+/// Where the grains come from: a CSV file, inline lists, a hexagonal crystal, or a prepared
+/// sample file. Exactly one of them.
 #[derive(Debug, Clone, Deserialize, Serialize, PartialEq, Default)]
 #[serde(deny_unknown_fields)]
 pub struct GrainSource {
@@ -181,6 +188,10 @@ pub struct GrainSource {
     /// A regular hexagonal crystal of equal grains.
     #[serde(default)]
     pub crystal: Option<CrystalSpec>,
+    /// A prepared sample (HDF5, see [`crate::sample::write_sample`]), relative to the scene
+    /// file: its grains exactly as saved, displacements and rotations included.
+    #[serde(default)]
+    pub sample: Option<String>,
 }
 
 /// Equal grains in a hexagonal arrangement: horizontal rows, each row shifted by one radius
@@ -307,4 +318,54 @@ impl Default for OutputSpec {
 
 fn one() -> usize {
     1
+}
+
+/// The sample section of a scene: what `grainstat generate` prepares (thesis 2.2, 3.2.1).
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct SampleSpec {
+    /// `"rectangle"`, `"annulus"` or `"beam"`.
+    pub region: crate::sample::prepare::RegionShape,
+    /// Height / width (rectangle, default 2.5), outer / inner radius (annulus, default 3),
+    /// length / height (beam, default 5).
+    #[serde(default)]
+    pub aspect: Option<f64>,
+    /// Number of grains.
+    pub grains: usize,
+    /// Size distribution: `{ kind = "a", mean_radius = 1e-4, ratio = 4 }` (appendix 4).
+    pub distribution: crate::sample::SizeDistribution,
+    /// Seed of the radii and of the sprinkling.
+    #[serde(default)]
+    pub seed: u64,
+    /// Grain friction while growing, `f_gg'`: 0 gives the densest sample.
+    #[serde(default)]
+    pub friction: f64,
+    /// Isotropic stress the sample is prepared to (Pa).
+    pub stress: f64,
+    /// Size at which grains are sprinkled, as a fraction of their own (default 0.5).
+    #[serde(default = "half")]
+    pub start_fraction: f64,
+    /// Solid fraction the region is sized for at the start (default 0.75).
+    #[serde(default = "three_quarters")]
+    pub solid_fraction: f64,
+}
+
+fn half() -> f64 {
+    0.5
+}
+
+fn three_quarters() -> f64 {
+    0.75
+}
+
+impl SampleSpec {
+    /// The aspect ratio, or the default of the region.
+    pub fn aspect(&self) -> f64 {
+        use crate::sample::prepare::RegionShape;
+        self.aspect.unwrap_or(match self.region {
+            RegionShape::Rectangle => 2.5,
+            RegionShape::Annulus => 3.0,
+            RegionShape::Beam => 5.0,
+        })
+    }
 }

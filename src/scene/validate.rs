@@ -12,7 +12,19 @@ use std::collections::BTreeMap;
 pub(crate) fn validate(scene: &Scene) -> Vec<(String, String)> {
     let mut p = Problems::default();
     material(&scene.material, &mut p);
-    p.0.extend(grain_problems(&scene.grains));
+    match &scene.sample {
+        // A scene that prepares a sample has no grains yet.
+        Some(spec) => {
+            sample(spec, &mut p);
+            if grain_problems(&scene.grains).is_empty() {
+                p.push(
+                    "grains",
+                    "a scene with a `[sample]` section prepares its grains: leave `[grains]` out",
+                );
+            }
+        }
+        None => p.0.extend(grain_problems(&scene.grains)),
+    }
     let walls = walls(scene, &mut p);
     stages(scene, &walls, &mut p);
     if scene.output.every == 0 {
@@ -32,6 +44,46 @@ pub(crate) fn validate(scene: &Scene) -> Vec<(String, String)> {
     p.0
 }
 
+/// The problems of a sample section.
+fn sample(s: &crate::scene::SampleSpec, p: &mut Problems) {
+    use crate::sample::prepare::RegionShape;
+    if s.grains == 0 {
+        p.push("sample.grains", "must be at least 1");
+    }
+    if p.finite("sample.stress", s.stress) && s.stress <= 0.0 {
+        p.push("sample.stress", "must be > 0 (Pa)");
+    }
+    if p.finite("sample.friction", s.friction) && s.friction < 0.0 {
+        p.push("sample.friction", "must be >= 0");
+    }
+    if p.finite("sample.start_fraction", s.start_fraction)
+        && !(s.start_fraction > 0.0 && s.start_fraction <= 1.0)
+    {
+        p.push("sample.start_fraction", "must be in (0, 1]");
+    }
+    if p.finite("sample.solid_fraction", s.solid_fraction)
+        && !(s.solid_fraction > 0.0 && s.solid_fraction <= 0.9)
+    {
+        p.push(
+            "sample.solid_fraction",
+            "must be in (0, 0.9]: discs cannot fill more than about 0.9 of a plane",
+        );
+    }
+    if let Some(a) = s.aspect {
+        let least = if s.region == RegionShape::Annulus {
+            1.0
+        } else {
+            0.0
+        };
+        if p.finite("sample.aspect", a) && a <= least {
+            p.push("sample.aspect", format!("must be > {least}"));
+        }
+    }
+    if let Err(e) = s.distribution.check() {
+        p.push("sample.distribution", e.to_string());
+    }
+}
+
 /// The problems of a grain source alone; also used when grains are built outside a scene.
 pub(crate) fn grain_problems(g: &GrainSource) -> Vec<(String, String)> {
     let mut p = Problems::default();
@@ -46,8 +98,11 @@ pub(crate) fn grain_problems(g: &GrainSource) -> Vec<(String, String)> {
     if g.crystal.is_some() {
         found.push("`crystal`");
     }
-    const SOURCES: &str = "`file = \"grains.csv\"`, inline `x`, `y`, `r` lists, or a \
-                           `[grains.crystal]` table";
+    if g.sample.is_some() {
+        found.push("`sample`");
+    }
+    const SOURCES: &str = "`file = \"grains.csv\"`, inline `x`, `y`, `r` lists, a \
+                           `[grains.crystal]` table, or `sample = \"sample.h5\"`";
     match found.len() {
         0 => p.push("grains", format!("no grains: give one of {SOURCES}")),
         1 => {}
@@ -62,6 +117,14 @@ pub(crate) fn grain_problems(g: &GrainSource) -> Vec<(String, String)> {
     if let Some(file) = &g.file {
         if file.trim().is_empty() {
             p.push("grains.file", "must name a CSV file of `x, y, r` lines");
+        }
+    }
+    if let Some(sample) = &g.sample {
+        if sample.trim().is_empty() {
+            p.push(
+                "grains.sample",
+                "must name a sample file (HDF5, written by `sample::write_sample`)",
+            );
         }
     }
     if inline {
@@ -280,7 +343,7 @@ fn stages(scene: &Scene, walls: &BTreeMap<String, WallControl>, p: &mut Problems
             }
         }
     }
-    if scene.stages.is_empty() {
+    if scene.stages.is_empty() && scene.sample.is_none() {
         p.push(
             "stages",
             "the scene has no load stages, so there is nothing to do: add at least one \

@@ -5,7 +5,7 @@ mod equations;
 mod setup;
 
 pub use equations::{IncrementEquations, LoadStep};
-pub use setup::{MaterialModel, StageProgram};
+pub use setup::{initial_contacts, MaterialModel, StageProgram};
 
 use crate::assembly::{DofMap, Pattern};
 use crate::contact::{

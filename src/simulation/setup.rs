@@ -77,6 +77,18 @@ impl MaterialModel {
         }
     }
 
+    /// The normal tangent stiffness (N/m) of a contact between grains of radius `r` that
+    /// carries `force` (N): `k_n`, or the Hertz tangent `1.5 M^(2/3) F^(1/3)`.
+    pub fn stiffness_at(&self, r: f64, force: f64) -> f64 {
+        match self.law {
+            LawKind::Linear => self.normal_stiffness,
+            LawKind::Hertz => {
+                let m = hertz_stiffness(r, self.shear_modulus, self.poisson);
+                1.5 * m.powf(2.0 / 3.0) * force.cbrt()
+            }
+        }
+    }
+
     /// Properties of a contact between the two sides of `pair`.
     pub fn params(&self, pair: Pair, grains: &GrainSet, walls: &WallSet) -> ContactParams {
         let rb = grains.radius[pair.b];

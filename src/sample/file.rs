@@ -1,0 +1,488 @@
+//! Prepared samples on disk: made once (sprinkled, blown up, brought to a stress), then
+//! loaded by every test that starts from them.
+//!
+//! The sample file is HDF5, with the conventions of the result file (`docs/hdf5-layout.md`:
+//! SI units, f64 stored exactly, int64 indices, variable-length UTF-8 strings):
+//!
+//! | where | what |
+//! |---|---|
+//! | root attributes | `format = "grainstat-sample"`, `format_version = 1`, `grainstat_version`, `description`, `seed` (uint64), `stress` (Pa), `contacts_per_grain`, `grains` (N) |
+//! | `/grains/position`, `origin`, `displacement` | (N, 2) f64 (m); `position = origin + displacement` |
+//! | `/grains/rotation` | (N,) f64 (rad) |
+//! | `/grains/radius` | (N,) f64 (m) |
+//! | `/bonds` | (K, 2) int64: the grain pairs that are cemented |
+//! | `/region` attributes | `shape` (`"rectangle"`, `"annulus"` or `"beam"`) and its dimensions (m): `width`, `height`; `inner_radius`, `outer_radius`; `length`, `height` |
+//! | `/distribution` attributes (absent when unknown) | `kind` (`"a"` or `"b"`), `mean_radius` (m), `ratio` |
+//!
+//! Origin and displacement are both kept, as in the result file: the solver forms contact
+//! geometry from them, and `position` cannot be split again exactly. A CSV file
+//! (`x,y,r`, [`write_csv`]) keeps only positions and radii, for other programs.
+
+use std::fmt::Write as _;
+use std::path::Path;
+use std::str::FromStr;
+
+use hdf5::types::VarLenUnicode;
+use hdf5::{Dataset, File, Group, H5Type, Location};
+use ndarray::{ArrayView, ArrayView1, ArrayView2};
+
+use super::{Region, SizeDistribution, SizeKind};
+use crate::error::{Error, InputError};
+use crate::geometry::GrainSet;
+
+/// Value of the root attribute `format`: tells sample files from other HDF5 files.
+pub const FORMAT: &str = "grainstat-sample";
+
+/// Version of the layout, root attribute `format_version`.
+pub const FORMAT_VERSION: i64 = 1;
+
+/// Datasets with fewer elements than this are stored plain: filters on tiny data only cost.
+const CHUNK_THRESHOLD: usize = 512;
+
+/// Elements per chunk of a large dataset (128 KiB of f64).
+const CHUNK_ELEMENTS: usize = 16_384;
+
+/// A prepared sample: the grains as they are, how they were made, and what holds them.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SampleFile {
+    /// The grains, displacements and rotations included.
+    pub grains: GrainSet,
+    /// The region they were sprinkled into.
+    pub region: Region,
+    /// The size distribution their radii were drawn from, if they were.
+    pub distribution: Option<SizeDistribution>,
+    /// The seed of the radii and the sprinkling.
+    pub seed: u64,
+    /// Free text: how the sample was made.
+    pub description: String,
+    /// The isotropic stress the sample was prepared to (Pa) (0 for a loose one).
+    pub stress: f64,
+    /// Grain-grain contacts per grain at that stress.
+    pub contacts_per_grain: f64,
+    /// Cemented grain pairs `(i, j)`, `i != j` (may be empty).
+    pub bonds: Vec<(usize, usize)>,
+}
+
+/// Writes a sample file (creating its folder, overwriting the file). A sample whose parts
+/// do not fit together (lengths, bonds naming no grain, bad region) is refused before
+/// anything is written.
+pub fn write_sample(path: impl AsRef<Path>, sample: &SampleFile) -> Result<(), Error> {
+    let path = path.as_ref();
+    check_sample(sample).map_err(|m| input_error(path, format!("cannot be written: {m}")))?;
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|e| Error::io(dir.display(), e))?;
+    }
+    let file = File::create(path).map_err(|e| Error::io(path.display(), e))?;
+    let write = || -> R<()> {
+        write_file(&file, sample)?;
+        file.flush()?;
+        Ok(())
+    };
+    write().map_err(|f| Error::io(path.display(), f.0))?;
+    file.close().map_err(|e| Error::io(path.display(), e))
+}
+
+/// Reads a sample file. A missing file, one that is not HDF5, an HDF5 file that is not a
+/// sample, or a sample whose parts do not fit together is an [`Error::Input`] naming the
+/// file.
+pub fn read_sample(path: impl AsRef<Path>) -> Result<SampleFile, Error> {
+    let path = path.as_ref();
+    let file = open_existing(path)?;
+    let sample = read_file(&file).map_err(|f| input_error(path, f.0))?;
+    check_sample(&sample).map_err(|m| input_error(path, m))?;
+    Ok(sample)
+}
+
+/// Writes grains as CSV, `x,y,r` with a header line, in Rust's shortest exponent form
+/// (`1.5e-4`), which reads back to the same bits. Only positions and radii are kept:
+/// the grains read back are at rest at those positions.
+pub fn write_csv(path: impl AsRef<Path>, grains: &GrainSet) -> Result<(), Error> {
+    let path = path.as_ref();
+    if grains.position.len() != grains.radius.len() {
+        return Err(input_error(
+            path,
+            format!(
+                "cannot be written: {} positions but {} radii",
+                grains.position.len(),
+                grains.radius.len()
+            ),
+        ));
+    }
+    let mut text = String::from("x,y,r\n");
+    for (i, (p, &r)) in grains.position.iter().zip(&grains.radius).enumerate() {
+        if !(p[0].is_finite() && p[1].is_finite() && r.is_finite() && r > 0.0) {
+            return Err(input_error(
+                path,
+                format!(
+                    "cannot be written: grain {i} is at ({}, {}) with radius {r}",
+                    p[0], p[1]
+                ),
+            ));
+        }
+        let _ = writeln!(text, "{:e},{:e},{:e}", p[0], p[1], r);
+    }
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|e| Error::io(dir.display(), e))?;
+    }
+    std::fs::write(path, text).map_err(|e| Error::io(path.display(), e))
+}
+
+/// Reads grains from CSV (`x, y, r` per line, as a scene's `[grains] file` reads them).
+pub fn read_csv(path: impl AsRef<Path>) -> Result<GrainSet, Error> {
+    Ok(crate::scene::read_grain_csv(path.as_ref())?)
+}
+
+// ---------------------------------------------------------------------------------------
+// Consistency.
+
+/// What is wrong with a sample, if anything.
+fn check_sample(s: &SampleFile) -> Result<(), String> {
+    let g = &s.grains;
+    let n = g.radius.len();
+    for (name, len) in [
+        ("position", g.position.len()),
+        ("origin", g.origin.len()),
+        ("displacement", g.displacement.len()),
+        ("rotation", g.rotation.len()),
+    ] {
+        if len != n {
+            return Err(format!("{len} grain {name}s but {n} radii"));
+        }
+    }
+    for (i, &r) in g.radius.iter().enumerate() {
+        if !(r.is_finite() && r > 0.0) {
+            return Err(format!("grain {i} has radius {r}"));
+        }
+    }
+    let finite = |v: &[[f64; 2]]| {
+        v.iter()
+            .position(|p| !(p[0].is_finite() && p[1].is_finite()))
+    };
+    for (name, v) in [
+        ("position", &g.position),
+        ("origin", &g.origin),
+        ("displacement", &g.displacement),
+    ] {
+        if let Some(i) = finite(v) {
+            return Err(format!("grain {i} has {name} {:?}", v[i]));
+        }
+    }
+    if let Some(i) = g.rotation.iter().position(|r| !r.is_finite()) {
+        return Err(format!("grain {i} has rotation {}", g.rotation[i]));
+    }
+    for (k, &(a, b)) in s.bonds.iter().enumerate() {
+        if a >= n || b >= n || a == b {
+            return Err(format!(
+                "bond {k} joins grains {a} and {b}: a bond joins two different grains of the \
+                 {n}"
+            ));
+        }
+    }
+    s.region.check().map_err(|e| e.to_string())?;
+    if let Some(d) = &s.distribution {
+        d.check().map_err(|e| e.to_string())?;
+    }
+    for (name, v) in [
+        ("stress", s.stress),
+        ("contacts_per_grain", s.contacts_per_grain),
+    ] {
+        if !(v.is_finite() && v >= 0.0) {
+            return Err(format!("`{name}` is {v}; it must be a finite number >= 0"));
+        }
+    }
+    Ok(())
+}
+
+// ---------------------------------------------------------------------------------------
+// Layout.
+
+fn write_file(file: &File, s: &SampleFile) -> R<()> {
+    set_str_attr(file, "format", FORMAT)?;
+    set_attr(file, "format_version", &FORMAT_VERSION)?;
+    set_str_attr(file, "grainstat_version", env!("CARGO_PKG_VERSION"))?;
+    set_str_attr(file, "description", &s.description)?;
+    set_attr(file, "seed", &s.seed)?;
+    set_attr(file, "stress", &s.stress)?;
+    set_attr(file, "contacts_per_grain", &s.contacts_per_grain)?;
+    set_attr(file, "grains", &(s.grains.len() as i64))?;
+
+    let g = file.create_group("grains")?;
+    put(&g, "position", ArrayView2::from(&s.grains.position[..]))?;
+    put(&g, "origin", ArrayView2::from(&s.grains.origin[..]))?;
+    put(
+        &g,
+        "displacement",
+        ArrayView2::from(&s.grains.displacement[..]),
+    )?;
+    put(&g, "rotation", ArrayView1::from(&s.grains.rotation[..]))?;
+    put(&g, "radius", ArrayView1::from(&s.grains.radius[..]))?;
+
+    let bonds: Vec<[i64; 2]> = s.bonds.iter().map(|&(a, b)| [a as i64, b as i64]).collect();
+    put(file, "bonds", ArrayView2::from(&bonds[..]))?;
+
+    let region = file.create_group("region")?;
+    set_str_attr(&region, "shape", s.region.shape())?;
+    for (name, value) in region_dimensions(&s.region) {
+        set_attr(&region, name, &value)?;
+    }
+
+    if let Some(d) = &s.distribution {
+        let g = file.create_group("distribution")?;
+        set_str_attr(&g, "kind", d.kind.name())?;
+        set_attr(&g, "mean_radius", &d.mean_radius)?;
+        set_attr(&g, "ratio", &d.ratio)?;
+    }
+    Ok(())
+}
+
+fn read_file(file: &File) -> R<SampleFile> {
+    let version = get_attr::<i64>(file, "format_version")?;
+    if version != FORMAT_VERSION {
+        return Err(Fail(format!(
+            "sample layout version {version}; this grainstat reads version {FORMAT_VERSION}"
+        )));
+    }
+    let n = get_attr::<i64>(file, "grains")?;
+    let n = usize::try_from(n).map_err(|_| Fail(format!("attribute `grains` is {n}")))?;
+    let g = file.group("grains")?;
+    let grains = GrainSet {
+        position: read_rows::<f64, 2>(&g, "position", Some(n))?,
+        origin: read_rows::<f64, 2>(&g, "origin", Some(n))?,
+        displacement: read_rows::<f64, 2>(&g, "displacement", Some(n))?,
+        rotation: read_vec::<f64>(&g, "rotation", Some(n))?,
+        radius: read_vec::<f64>(&g, "radius", Some(n))?,
+    };
+
+    let bonds = read_rows::<i64, 2>(file, "bonds", None)?
+        .into_iter()
+        .map(|[a, b]| match (usize::try_from(a), usize::try_from(b)) {
+            (Ok(a), Ok(b)) => Ok((a, b)),
+            _ => Err(Fail(format!("bond ({a}, {b}) names no grain"))),
+        })
+        .collect::<R<Vec<_>>>()?;
+
+    let r = file.group("region")?;
+    let dim = |name: &str| get_attr::<f64>(&r, name);
+    let region = match get_str_attr(&r, "shape")?.as_str() {
+        "rectangle" => Region::Rectangle {
+            width: dim("width")?,
+            height: dim("height")?,
+        },
+        "annulus" => Region::Annulus {
+            inner_radius: dim("inner_radius")?,
+            outer_radius: dim("outer_radius")?,
+        },
+        "beam" => Region::Beam {
+            length: dim("length")?,
+            height: dim("height")?,
+        },
+        other => {
+            return Err(Fail(format!(
+                "region shape `{other}`: expected `rectangle`, `annulus` or `beam`"
+            )))
+        }
+    };
+
+    let distribution = if file.link_exists("distribution") {
+        let d = file.group("distribution")?;
+        let kind = match get_str_attr(&d, "kind")?.as_str() {
+            "a" => SizeKind::A,
+            "b" => SizeKind::B,
+            other => {
+                return Err(Fail(format!(
+                    "distribution kind `{other}`: expected `a` or `b`"
+                )))
+            }
+        };
+        Some(SizeDistribution {
+            kind,
+            mean_radius: get_attr::<f64>(&d, "mean_radius")?,
+            ratio: get_attr::<f64>(&d, "ratio")?,
+        })
+    } else {
+        None
+    };
+
+    Ok(SampleFile {
+        grains,
+        region,
+        distribution,
+        seed: get_attr::<u64>(file, "seed")?,
+        description: get_str_attr(file, "description")?,
+        stress: get_attr::<f64>(file, "stress")?,
+        contacts_per_grain: get_attr::<f64>(file, "contacts_per_grain")?,
+        bonds,
+    })
+}
+
+/// The region's dimensions as (attribute name, value).
+fn region_dimensions(region: &Region) -> [(&'static str, f64); 2] {
+    match *region {
+        Region::Rectangle { width, height } => [("width", width), ("height", height)],
+        Region::Annulus {
+            inner_radius,
+            outer_radius,
+        } => [
+            ("inner_radius", inner_radius),
+            ("outer_radius", outer_radius),
+        ],
+        Region::Beam { length, height } => [("length", length), ("height", height)],
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// Opening and errors (as in `output::hdf5_file`).
+
+/// An internal failure with its message; an [`Error::Io`] when writing, an
+/// [`Error::Input`] when reading.
+#[derive(Debug)]
+struct Fail(String);
+
+impl From<hdf5::Error> for Fail {
+    fn from(e: hdf5::Error) -> Self {
+        Fail(e.to_string())
+    }
+}
+
+impl From<ndarray::ShapeError> for Fail {
+    fn from(e: ndarray::ShapeError) -> Self {
+        Fail(e.to_string())
+    }
+}
+
+type R<T> = std::result::Result<T, Fail>;
+
+fn input_error(path: &Path, message: impl Into<String>) -> Error {
+    Error::Input(InputError::new(path.display().to_string(), message))
+}
+
+/// Open a sample file the user named: missing, a directory, not HDF5, or an HDF5 file that
+/// is not a sample are all input errors.
+fn open_existing(path: &Path) -> Result<File, Error> {
+    if !path.exists() {
+        return Err(input_error(path, "no such file"));
+    }
+    if path.is_dir() {
+        return Err(input_error(path, "is a directory, not a sample file"));
+    }
+    let file = File::open(path)
+        .map_err(|e| input_error(path, format!("cannot be opened as an HDF5 file: {e}")))?;
+    let format = file
+        .attr("format")
+        .and_then(|a| a.read_scalar::<VarLenUnicode>())
+        .map(|s| s.as_str().to_owned());
+    match format {
+        Ok(f) if f == FORMAT => Ok(file),
+        Ok(f) if f == crate::output::hdf5_file::FORMAT => Err(input_error(
+            path,
+            "is a grainstat result file, not a sample file",
+        )),
+        Ok(f) => Err(input_error(
+            path,
+            format!("not a grainstat sample file (format `{f}`)"),
+        )),
+        Err(_) => Err(input_error(
+            path,
+            "not a grainstat sample file (no `format` attribute)",
+        )),
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+// Small helpers.
+
+/// Set a scalar attribute, writing over an existing one.
+fn set_attr<T: H5Type>(loc: &Location, name: &str, value: &T) -> R<()> {
+    match loc.attr(name) {
+        Ok(a) => a.write_scalar(value)?,
+        Err(_) => loc.new_attr::<T>().create(name)?.write_scalar(value)?,
+    }
+    Ok(())
+}
+
+fn set_str_attr(loc: &Location, name: &str, value: &str) -> R<()> {
+    let v = VarLenUnicode::from_str(value).map_err(|e| Fail(format!("string {value:?}: {e}")))?;
+    set_attr(loc, name, &v)
+}
+
+fn get_attr<T: H5Type>(loc: &Location, name: &str) -> R<T> {
+    loc.attr(name)
+        .and_then(|a| a.read_scalar::<T>())
+        .map_err(|e| Fail(format!("attribute `{name}` of `{}`: {e}", loc.name())))
+}
+
+fn get_str_attr(loc: &Location, name: &str) -> R<String> {
+    Ok(get_attr::<VarLenUnicode>(loc, name)?.as_str().to_owned())
+}
+
+/// Write a dataset: chunked, shuffled and deflated when large, plain when small. Zero-size
+/// arrays are plain too (HDF5 cannot chunk them).
+fn put<T: H5Type, D: ndarray::Dimension>(g: &Group, name: &str, data: ArrayView<T, D>) -> R<()> {
+    let shape = data.shape().to_vec();
+    let builder = g.new_dataset_builder();
+    if data.len() >= CHUNK_THRESHOLD {
+        let row = shape[1..].iter().product::<usize>().max(1);
+        let mut chunk = shape.clone();
+        chunk[0] = (CHUNK_ELEMENTS / row).clamp(1, shape[0]);
+        let builder = builder.with_data(data).chunk(chunk).shuffle();
+        if hdf5::filters::deflate_available() {
+            builder.deflate(4).create(name)?;
+        } else {
+            builder.create(name)?;
+        }
+    } else {
+        builder.with_data(data).create(name)?;
+    }
+    Ok(())
+}
+
+fn dataset(g: &Group, name: &str) -> R<Dataset> {
+    g.dataset(name)
+        .map_err(|e| Fail(format!("dataset `{}/{name}`: {e}", g.name())))
+}
+
+/// A 1-D dataset, of length `len` when given.
+fn read_vec<T: H5Type>(g: &Group, name: &str, len: Option<usize>) -> R<Vec<T>> {
+    let ds = dataset(g, name)?;
+    let shape = ds.shape();
+    if shape.len() != 1 || len.is_some_and(|n| n != shape[0]) {
+        return Err(Fail(format!(
+            "dataset `{}/{name}` has shape {shape:?}, expected ({},)",
+            g.name(),
+            len.map_or("n".into(), |n| n.to_string())
+        )));
+    }
+    ds.read_raw::<T>()
+        .map_err(|e| Fail(format!("dataset `{}/{name}`: {e}", g.name())))
+}
+
+/// An n x C dataset as rows, with n = `len` when given.
+fn read_rows<T: H5Type + Copy + Default, const C: usize>(
+    g: &Group,
+    name: &str,
+    len: Option<usize>,
+) -> R<Vec<[T; C]>> {
+    let ds = dataset(g, name)?;
+    let shape = ds.shape();
+    if shape.len() != 2 || shape[1] != C || len.is_some_and(|n| n != shape[0]) {
+        return Err(Fail(format!(
+            "dataset `{}/{name}` has shape {shape:?}, expected ({}, {C})",
+            g.name(),
+            len.map_or("n".into(), |n| n.to_string())
+        )));
+    }
+    let raw = ds
+        .read_raw::<T>()
+        .map_err(|e| Fail(format!("dataset `{}/{name}`: {e}", g.name())))?;
+    if raw.len() != shape[0] * C {
+        return Err(Fail(format!("dataset `{}/{name}` is short", g.name())));
+    }
+    Ok(raw
+        .chunks_exact(C)
+        .map(|c| {
+            let mut row = [T::default(); C];
+            row.copy_from_slice(c);
+            row
+        })
+        .collect())
+}
