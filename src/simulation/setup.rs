@@ -233,8 +233,8 @@ pub fn build_stages(scene: &Scene, walls: &WallSet) -> Vec<StageProgram> {
 /// crystal built at exact contact starts with its contacts.
 const TOUCH: f64 = 1e-9;
 
-/// The contacts of a fresh sample: every pair touching within a billionth of the mean radius, cemented when the
-/// material is bonded (grain-grain contacts only).
+/// The contacts of a fresh sample: every pair touching within a billionth of the mean
+/// radius, cemented when the material is bonded (grain-grain contacts only).
 pub fn initial_contacts(
     material: &MaterialModel,
     grains: &GrainSet,
