@@ -22,6 +22,7 @@ pub fn header(sim: &Simulation, scene_text: &str, solver_text: &str) -> RunHeade
         walls: RunHeader::walls_of(&sim.state.walls),
         fixed_rotations: sim.material.fixed_rotations,
         law: format!("{:?}", sim.material.law).to_lowercase(),
+        membranes: sim.state.membranes.clone(),
     }
 }
 

@@ -2,7 +2,7 @@
 //! resume. Everything else (factorisations, buffers, the pattern) is workspace, rebuilt from it.
 
 use crate::contact::ContactSet;
-use crate::geometry::{GrainSet, WallSet};
+use crate::geometry::{GrainSet, Membrane, Side, WallSet};
 use crate::measure::Measurements;
 
 /// Where a run stands: committed positions, wall states, contact history, and the place in
@@ -21,6 +21,8 @@ pub struct State {
     pub walls: WallSet,
     /// Contacts and their committed history; bonds broken so far.
     pub contacts: ContactSet,
+    /// Membranes and their pressures (their chains are found anew each increment).
+    pub membranes: Vec<Membrane>,
     /// Grain centres when the friends lists were last made: rebuilding the lists from them
     /// gives the same pattern, so a resumed run repeats the uninterrupted one exactly.
     pub friends_reference: Vec<[f64; 2]>,
@@ -51,4 +53,91 @@ pub struct IncrementReport {
     pub contacts_lost: usize,
     /// Bonds broken in this increment.
     pub bonds_broken: usize,
+}
+
+impl State {
+    /// Keep only the walls named in `keep`, dropping the others with their contacts: how a
+    /// test changes the boundary a sample was prepared in (a borehole freed of its plug, the
+    /// sides of a biaxial test handed to membranes).
+    pub fn keep_walls(&mut self, keep: &[&str]) {
+        let old = std::mem::take(&mut self.walls.walls);
+        let mut index = vec![None; old.len()];
+        let mut reference = Vec::new();
+        for (w, wall) in old.into_iter().enumerate() {
+            if keep.contains(&wall.name.as_str()) {
+                index[w] = Some(self.walls.walls.len());
+                reference.push(self.friends_wall_reference[w]);
+                self.walls.walls.push(wall);
+            }
+        }
+        self.friends_wall_reference = reference;
+        self.contacts.contacts.retain_mut(|c| match c.pair.a {
+            Side::Wall(w) => match index[w] {
+                Some(k) => {
+                    c.pair.a = Side::Wall(k);
+                    true
+                }
+                None => false,
+            },
+            Side::Grain(_) => true,
+        });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::contact::{Contact, ContactParams};
+    use crate::geometry::{Pair, Wall, WallControl};
+
+    #[test]
+    fn keep_walls_drops_walls_and_their_contacts_and_renumbers_the_rest() {
+        let wall = |name: &str| Wall {
+            name: name.into(),
+            normal: [0.0, 1.0],
+            offset: 0.0,
+            position: 0.0,
+            slide: 0.0,
+            control: WallControl::Displacement,
+            stress: 0.0,
+            length: None,
+            friction: 0.0,
+            circle: None,
+        };
+        let params = ContactParams {
+            stiffness: 1.0,
+            kappa: 1.0,
+            friction: 0.5,
+            strength: 0.0,
+        };
+        let contact = |a: Side, b: usize| Contact::new(Pair { a, b }, params, false);
+        let mut state = State {
+            increment: 0,
+            stage: 0,
+            stage_increment: 0,
+            grains: GrainSet::new(vec![[0.0; 2]; 3], vec![1.0; 3]),
+            walls: WallSet {
+                walls: vec![wall("bottom"), wall("right"), wall("top")],
+            },
+            contacts: ContactSet {
+                contacts: vec![
+                    contact(Side::Grain(0), 1),
+                    contact(Side::Wall(0), 0),
+                    contact(Side::Wall(1), 1),
+                    contact(Side::Wall(2), 2),
+                ],
+                broken_bonds: Vec::new(),
+            },
+            friends_reference: vec![[0.0; 2]; 3],
+            friends_wall_reference: vec![[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]],
+            membranes: Vec::new(),
+        };
+        state.keep_walls(&["bottom", "top"]);
+        let names: Vec<&str> = state.walls.walls.iter().map(|w| w.name.as_str()).collect();
+        assert_eq!(names, ["bottom", "top"]);
+        assert_eq!(state.friends_wall_reference, vec![[0.0, 0.0], [2.0, 0.0]]);
+        let pairs: Vec<Side> = state.contacts.contacts.iter().map(|c| c.pair.a).collect();
+        assert_eq!(pairs, [Side::Grain(0), Side::Wall(0), Side::Wall(1)]);
+        assert_eq!(state.contacts.contacts[2].pair.b, 2);
+    }
 }

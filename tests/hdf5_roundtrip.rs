@@ -2,7 +2,9 @@
 //! complete increment, bad files are input errors, and Python can read the layout.
 
 use grainstat::contact::{BreakMode, BrokenBond, Contact, ContactParams, ContactSet, Response};
-use grainstat::geometry::{Circle, GrainSet, Pair, Side, Wall, WallControl, WallSet};
+use grainstat::geometry::{
+    Circle, GrainSet, Membrane, MembraneShape, Pair, Side, Wall, WallControl, WallSet,
+};
 use grainstat::measure::Measurements;
 use grainstat::output::{info, read_increments, read_state, read_summary, ResultFile, RunHeader};
 use grainstat::solver::stats::SolverStats;
@@ -177,6 +179,7 @@ fn state(k: usize) -> State {
             broken_bonds,
         },
         friends_reference: position,
+        membranes: Vec::new(),
         friends_wall_reference: vec![[0.0, 0.0], [0.0, -1e-7], [1e-6, 0.0], [0.0, 0.0]],
     }
 }
@@ -228,6 +231,7 @@ fn header(s: &State) -> RunHeader {
         walls: RunHeader::walls_of(&s.walls),
         fixed_rotations: false,
         law: "linear".into(),
+        membranes: Vec::new(),
     }
 }
 
@@ -500,7 +504,7 @@ fn python_reads_the_layout() {
 }
 
 #[test]
-fn circular_walls_read_back() {
+fn circular_walls_and_membranes_read_back() {
     let _guard = serial();
     let ring = Wall {
         normal: [0.0; 2],
@@ -532,8 +536,23 @@ fn circular_walls_read_back() {
         .contacts
         .contacts
         .retain(|c| matches!(c.pair.a, Side::Grain(_)));
+    state.membranes = vec![
+        Membrane {
+            name: "right".into(),
+            shape: MembraneShape::Side {
+                outward: [1.0, 0.0],
+            },
+            pressure: 2.5e5,
+        },
+        Membrane {
+            name: "outer".into(),
+            shape: MembraneShape::Ring { center: [1.0, 1.0] },
+            pressure: 1.0e6,
+        },
+    ];
     let header = RunHeader {
         walls: RunHeader::walls_of(&state.walls),
+        membranes: state.membranes.clone(),
         ..header(&state)
     };
     let mut file = ResultFile::create(&path, &header).unwrap();
@@ -543,4 +562,5 @@ fn circular_walls_read_back() {
     let (back_header, back) = read_state(&path, 1).unwrap();
     assert_eq!(back_header.walls, header.walls);
     assert_eq!(back.walls, state.walls);
+    assert_eq!(back.membranes, state.membranes);
 }

@@ -132,9 +132,21 @@ pub struct Pattern {
 impl Pattern {
     /// The pattern of every friend pair's block, every diagonal entry, and the coupling of a
     /// stress-controlled wall to the walls that set its loaded length.
-    pub fn build(friends: &FriendSet, dofs: &DofMap, walls: &WallSet) -> Pattern {
+    pub fn build(
+        friends: &FriendSet,
+        dofs: &DofMap,
+        walls: &WallSet,
+        links: &[(usize, usize)],
+    ) -> Pattern {
         let n = dofs.len;
         let mut columns: Vec<Vec<usize>> = (0..n).map(|j| vec![j]).collect();
+        // Grain links outside the friends lists (membrane chains): their centre blocks.
+        for &(a, b) in links {
+            let (ga, gb) = (dofs.grain(a), dofs.grain(b));
+            for c in [ga, ga + 1, gb, gb + 1] {
+                columns[c].extend_from_slice(&[ga, ga + 1, gb, gb + 1]);
+            }
+        }
         // Only the unknowns matter here, not the weights.
         let maps: Vec<PairMap> = friends
             .pairs
@@ -199,6 +211,18 @@ impl Pattern {
             diagonal,
             couplings,
         }
+    }
+
+    /// Value index of entry (`row`, `col`), if the pattern has it.
+    pub fn slot(&self, row: usize, col: usize) -> Option<usize> {
+        let start = self.symbolic.col_ptr()[col];
+        let rows = self.symbolic.row_idx_of_col_raw(col);
+        rows.binary_search(&row).ok().map(|k| start + k)
+    }
+
+    /// Whether the pattern has the centre blocks of grains `a` and `b` together.
+    pub fn links(&self, dofs: &DofMap, a: usize, b: usize) -> bool {
+        self.slot(dofs.grain(a), dofs.grain(b)).is_some()
     }
 
     /// Number of stored entries.

@@ -2,8 +2,10 @@
 //! pairs may touch (thesis appendix 3).
 
 mod friends;
+mod membrane;
 
 pub use friends::{gap as gap_between, FriendSet, Pair, Side};
+pub use membrane::{segment_force, Chain, Membrane, MembraneShape};
 
 /// The grains: centres, rotations and radii, one entry per grain (`GrainId` = index).
 ///
@@ -212,6 +214,17 @@ impl Wall {
     }
 }
 
+/// Extent of grains at `position` with `radius` along `direction` (m).
+pub fn extent_along(position: &[[f64; 2]], radius: &[f64], direction: [f64; 2]) -> f64 {
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for (p, r) in position.iter().zip(radius) {
+        let s = p[0] * direction[0] + p[1] * direction[1];
+        lo = lo.min(s - r);
+        hi = hi.max(s + r);
+    }
+    (hi - lo).max(0.0)
+}
+
 /// The walls, with the area they enclose.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct WallSet {
@@ -254,8 +267,18 @@ impl WallSet {
         -(wa.offset + wa.position + wb.offset + wb.position)
     }
 
+    /// Loaded length of wall `w` with the grains where they are: its fixed length, a circle's
+    /// circumference, the gap between its span walls, or (between membranes) the extent of
+    /// the grains along it.
+    pub fn loaded_length(&self, w: usize, grains: &GrainSet) -> f64 {
+        match self.length(w) {
+            Some(l) => l,
+            None => extent_along(&grains.position, &grains.radius, self.walls[w].tangent()),
+        }
+    }
+
     /// Loaded length of wall `w` now: its fixed length, a circle's circumference, or the gap
-    /// between its span walls.
+    /// between its span walls (`None` when it has none of these).
     pub fn length(&self, w: usize) -> Option<f64> {
         let wall = &self.walls[w];
         match (wall.length, &wall.circle) {

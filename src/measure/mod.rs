@@ -86,3 +86,48 @@ pub fn measure(
     m.contacts_per_grain = 2.0 * m.grain_contacts as f64 / grains.len().max(1) as f64;
     m
 }
+
+/// Radial and tangential stress (eq. A.41) in rings about `center`: for each ring between
+/// consecutive `edges` (m), `(mid radius, sigma_rr, sigma_tt)` from the grain-grain contacts
+/// whose midpoints lie in it, each contact's `d F` projected on the radial and tangential
+/// directions at its midpoint, over the ring's area times the depth. Compression positive.
+pub fn ring_stresses(
+    grains: &GrainSet,
+    contacts: &ContactSet,
+    center: [f64; 2],
+    edges: &[f64],
+    depth: f64,
+) -> Vec<(f64, f64, f64)> {
+    let rings = edges.len().saturating_sub(1);
+    let mut sums = vec![[0.0f64; 2]; rings];
+    for c in &contacts.contacts {
+        let Side::Grain(a) = c.pair.a else {
+            continue;
+        };
+        let b = c.pair.b;
+        let d = grains.branch(a, b);
+        let (pa, len) = (grains.position[a], d[0].hypot(d[1]));
+        let mid = [
+            pa[0] + 0.5 * d[0] - center[0],
+            pa[1] + 0.5 * d[1] - center[1],
+        ];
+        let r = mid[0].hypot(mid[1]);
+        let Some(k) = edges.windows(2).position(|w| w[0] <= r && r < w[1]) else {
+            continue;
+        };
+        let (n, t) = ([d[0] / len, d[1] / len], [-d[1] / len, d[0] / len]);
+        let (fn_, fs) = (c.response.normal_force, c.response.shear_force);
+        let force = [fn_ * n[0] - fs * t[0], fn_ * n[1] - fs * t[1]];
+        let (er, et) = ([mid[0] / r, mid[1] / r], [-mid[1] / r, mid[0] / r]);
+        let dot = |u: [f64; 2], v: [f64; 2]| u[0] * v[0] + u[1] * v[1];
+        sums[k][0] += dot(d, er) * dot(force, er);
+        sums[k][1] += dot(d, et) * dot(force, et);
+    }
+    (0..rings)
+        .map(|k| {
+            let (r0, r1) = (edges[k], edges[k + 1]);
+            let volume = std::f64::consts::PI * (r1 * r1 - r0 * r0) * depth;
+            (0.5 * (r0 + r1), sums[k][0] / volume, sums[k][1] / volume)
+        })
+        .collect()
+}

@@ -18,7 +18,9 @@ use ndarray::{s, Array1, ArrayView, ArrayView1, ArrayView2};
 
 use crate::contact::{BreakMode, BrokenBond, Contact, ContactParams, ContactSet, Response};
 use crate::error::{Error, InputError};
-use crate::geometry::{Circle, GrainSet, Pair, Side, Wall, WallControl, WallSet};
+use crate::geometry::{
+    Circle, GrainSet, Membrane, MembraneShape, Pair, Side, Wall, WallControl, WallSet,
+};
 use crate::solver::stats::{Counters, SolverStats, StageTimers};
 use crate::state::{IncrementReport, State};
 
@@ -61,6 +63,8 @@ pub struct RunHeader {
     pub fixed_rotations: bool,
     /// Contact law: `"linear"` or `"hertz"`.
     pub law: String,
+    /// Membranes: names and shapes (their pressures come from each increment).
+    pub membranes: Vec<Membrane>,
 }
 
 /// The part of a [`Wall`] that never changes; position, slide and applied stress come from
@@ -842,7 +846,7 @@ fn write_header(file: &File, h: &RunHeader) -> R<()> {
         })
         .collect();
     put(&walls, "circle", ArrayView2::from(&circle[..]))?;
-    Ok(())
+    write_membranes(file, &h.membranes)
 }
 
 fn read_header(file: &File) -> R<RunHeader> {
@@ -905,7 +909,48 @@ fn read_header(file: &File) -> R<RunHeader> {
         walls,
         fixed_rotations: get_attr::<u8>(file, "fixed_rotations")? != 0,
         law: get_str_attr(file, "law")?,
+        membranes: read_membranes(file)?,
     })
+}
+
+/// Membranes as kind (0 a side, 1 a ring) and the side's outward direction or the ring's
+/// centre.
+fn write_membranes(file: &File, membranes: &[Membrane]) -> R<()> {
+    let group = file.create_group("membranes")?;
+    let names: Vec<String> = membranes.iter().map(|m| m.name.clone()).collect();
+    put_strings(&group, "name", &names)?;
+    let shape: Vec<[f64; 3]> = membranes
+        .iter()
+        .map(|m| match m.shape {
+            MembraneShape::Side { outward } => [0.0, outward[0], outward[1]],
+            MembraneShape::Ring { center } => [1.0, center[0], center[1]],
+        })
+        .collect();
+    put(&group, "shape", ArrayView2::from(&shape[..]))?;
+    Ok(())
+}
+
+fn read_membranes(file: &File) -> R<Vec<Membrane>> {
+    let group = file.group("membranes")?;
+    let names = read_vec::<VarLenUnicode>(&group, "name", None)?;
+    let shape = read_rows::<f64, 3>(&group, "shape", Some(names.len()))?;
+    Ok(names
+        .iter()
+        .zip(&shape)
+        .map(|(name, s)| Membrane {
+            name: name.as_str().to_owned(),
+            shape: if s[0] == 0.0 {
+                MembraneShape::Side {
+                    outward: [s[1], s[2]],
+                }
+            } else {
+                MembraneShape::Ring {
+                    center: [s[1], s[2]],
+                }
+            },
+            pressure: 0.0,
+        })
+        .collect())
 }
 
 // ---------------------------------------------------------------------------------------
@@ -1005,6 +1050,9 @@ fn write_group_state(g: &Group, state: &State, report: &IncrementReport) -> R<()
     put(&walls, "shear_force", ArrayView1::from(&shear_force[..]))?;
     let measured = per_wall(&m.wall_stress, nw);
     put(&walls, "measured_stress", ArrayView1::from(&measured[..]))?;
+    let membranes = g.create_group("membranes")?;
+    let pressure: Vec<f64> = state.membranes.iter().map(|m| m.pressure).collect();
+    put(&membranes, "pressure", ArrayView1::from(&pressure[..]))?;
 
     put(g, "macro_stress", ArrayView2::from(&m.macro_stress[..]))?;
 
@@ -1138,6 +1186,16 @@ fn read_group_state(g: &Group, h: &RunHeader) -> R<State> {
         })
         .collect::<R<Vec<_>>>()?;
 
+    let pressure = read_vec::<f64>(&g.group("membranes")?, "pressure", Some(h.membranes.len()))?;
+    let membranes = h
+        .membranes
+        .iter()
+        .zip(&pressure)
+        .map(|(m, p)| Membrane {
+            pressure: *p,
+            ..m.clone()
+        })
+        .collect();
     let friends = g.group("friends")?;
     Ok(State {
         increment: get_count(g, "increment")?,
@@ -1151,6 +1209,7 @@ fn read_group_state(g: &Group, h: &RunHeader) -> R<State> {
         },
         friends_reference: read_rows::<f64, 2>(&friends, "reference", None)?,
         friends_wall_reference: read_rows::<f64, 2>(&friends, "wall_reference", None)?,
+        membranes,
     })
 }
 

@@ -175,9 +175,15 @@ pub fn prepare(
     let mut walls = region_walls(&region, spec.stress);
 
     // Growth with f_gg', the walls holding the target stress.
+    // Disturbances cross the sample in a time that grows as the square root of the number of
+    // grains (its width in diameters); growth and rest scale with it.
+    let crossings = (spec.grains as f64 / 1000.0).sqrt().max(1.0);
+    let growth_steps = (4000.0 * crossings) as usize;
     let settings = GrowSettings {
         friction: spec.friction,
         stress: spec.stress,
+        growth_steps,
+        max_rest_steps: 20 * growth_steps,
         ..GrowSettings::default()
     };
     let (growth, shear_forces) = grow(
@@ -213,6 +219,7 @@ pub fn prepare(
             .collect(),
         normal_move: vec![0.0; walls.len()],
         slide: vec![0.0; walls.len()],
+        pressure: Vec::new(),
     };
     let state = State {
         increment: 0,
@@ -223,19 +230,24 @@ pub fn prepare(
         grains,
         walls,
         contacts,
+        membranes: Vec::new(),
     };
     // The consistent tangent: near rest many contacts sit on the Coulomb limit, where the
-    // elasto-plastic one converges only linearly; this solve is made once per sample.
+    // elasto-plastic one converges only linearly; this solve is made once per sample. The
+    // load is held, so halving the step would not help.
     let exact = SolverConfig {
         linear: LinearKind::Lu,
         slip_tangent: SlipTangent::Consistent,
+        max_cuts: 0,
         ..config.clone()
     };
     let mut sim = Simulation::from_state("prepare".into(), exact, soft, depth, vec![hold], state)?;
     let report = sim.run_increment()?;
 
-    // Friction up to f_gg''; cement for a bonded material.
+    // Friction up to f_gg''; cement for a bonded material. The prepared state is the start of
+    // whatever uses it: no increments, no stages done.
     let mut state = sim.state;
+    (state.increment, state.stage, state.stage_increment) = (0, 0, 0);
     let mut bonds = Vec::new();
     for c in &mut state.contacts.contacts {
         if let Side::Grain(a) = c.pair.a {

@@ -39,6 +39,12 @@ pub struct Scene {
     /// Straight rigid walls, in addition to those of `box`.
     #[serde(default)]
     pub walls: Vec<WallSpec>,
+    /// Circular rigid walls: rings around the grains, plugs among them.
+    #[serde(default)]
+    pub circles: Vec<CircleSpec>,
+    /// Membranes: pressure on the outermost grains, following them.
+    #[serde(default)]
+    pub membranes: Vec<MembraneSpec>,
     /// The load program: stages applied one after another.
     #[serde(default)]
     pub stages: Vec<Stage>,
@@ -368,4 +374,55 @@ impl SampleSpec {
             RegionShape::Beam => 5.0,
         })
     }
+}
+
+/// Where the grains are relative to a circular wall.
+#[derive(Debug, Clone, Copy, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "kebab-case")]
+pub enum CircleSide {
+    /// Inside the circle: the wall is a ring around them.
+    Inside,
+    /// Outside the circle: the wall is a plug among them.
+    Outside,
+}
+
+/// A circular rigid wall.
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct CircleSpec {
+    /// Name used by the load program.
+    pub name: String,
+    /// Centre (m).
+    pub center: [f64; 2],
+    /// Radius (m).
+    pub radius: f64,
+    /// Whether the grains are `"inside"` (a ring) or `"outside"` (a plug).
+    pub grains: CircleSide,
+    /// Friction between grains and this wall (`f_gw`).
+    #[serde(default = "zero_friction")]
+    pub friction: Friction,
+    /// Displacement-controlled (held, or moved into the sample by `displacement`) or
+    /// stress-controlled (its radius an unknown loaded by `stress * circumference * depth`).
+    #[serde(default)]
+    pub control: WallControl,
+    /// Stress at the start (Pa) (stress-controlled).
+    #[serde(default)]
+    pub stress: f64,
+}
+
+/// A membrane: a pressure on the outermost grains that follows them.
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct MembraneSpec {
+    /// Name used by the load program (`stress = { NAME = ... }` sets its pressure).
+    pub name: String,
+    /// A side membrane: the direction pointing out of the sample through that side.
+    #[serde(default)]
+    pub side: Option<[f64; 2]>,
+    /// A membrane all around the sample, about this centre (m).
+    #[serde(default)]
+    pub ring: Option<[f64; 2]>,
+    /// Pressure at the start (Pa).
+    #[serde(default)]
+    pub pressure: f64,
 }

@@ -292,6 +292,55 @@ fn walls(scene: &Scene, p: &mut Problems) -> BTreeMap<String, WallControl> {
             p.positive(&format!("{at}.length"), l);
         }
     }
+    let mut unique = |p: &mut Problems, key: String, name: &str, control: WallControl| {
+        if name.trim().is_empty() {
+            p.push(key, "must not be empty");
+        } else if known.contains_key(name) {
+            p.push(
+                key,
+                format!("a wall or membrane is already named `{name}`: names must be unique"),
+            );
+        } else {
+            known.insert(name.to_string(), control);
+        }
+    };
+    for (i, c) in scene.circles.iter().enumerate() {
+        let at = format!("circles[{i}]");
+        unique(p, format!("{at}.name"), &c.name, c.control);
+        for (j, &v) in c.center.iter().enumerate() {
+            p.finite(&format!("{at}.center[{j}]"), v);
+        }
+        p.positive(&format!("{at}.radius"), c.radius);
+        p.friction(&format!("{at}.friction"), c.friction);
+        p.finite(&format!("{at}.stress"), c.stress);
+    }
+    // A membrane is loaded like a stress-controlled wall: by `stress` in the stages.
+    for (i, m) in scene.membranes.iter().enumerate() {
+        let at = format!("membranes[{i}]");
+        unique(p, format!("{at}.name"), &m.name, WallControl::Stress);
+        match (m.side, m.ring) {
+            (Some(v), None) => {
+                let ok = p.finite(&format!("{at}.side[0]"), v[0]) & p.finite(&format!("{at}.side[1]"), v[1]);
+                if ok && v[0].hypot(v[1]) == 0.0 {
+                    p.push(format!("{at}.side"), "must not be zero: it points out of the sample");
+                }
+            }
+            (None, Some(c)) => {
+                p.finite(&format!("{at}.ring[0]"), c[0]);
+                p.finite(&format!("{at}.ring[1]"), c[1]);
+            }
+            _ => p.push(
+                at.clone(),
+                "give exactly one of `side = [x, y]` (out of the sample) or `ring = [x, y]` (centre)",
+            ),
+        }
+        if p.finite(&format!("{at}.pressure"), m.pressure) && m.pressure < 0.0 {
+            p.push(
+                format!("{at}.pressure"),
+                "must be >= 0 (Pa): a membrane only pushes",
+            );
+        }
+    }
     known
 }
 

@@ -3,7 +3,9 @@
 
 use crate::assembly::{contact_block, DofMap, Pattern};
 use crate::contact::{kinematics, Configuration, Contact, ContactLaw, Kinematics, SlipTangent};
-use crate::geometry::{GrainSet, Side, WallSet};
+use crate::geometry::{
+    extent_along, segment_force, Chain, GrainSet, Membrane, MembraneShape, Side, WallSet,
+};
 use crate::solver::stats::{secs, StageTimers};
 use crate::solver::Equations;
 use crate::NumericError;
@@ -18,23 +20,26 @@ pub struct LoadStep {
     pub slide: Vec<f64>,
     /// Stress on each wall at the end of this step (Pa) (stress-controlled walls).
     pub stress: Vec<f64>,
+    /// Pressure on each membrane at the end of this step (Pa).
+    pub pressure: Vec<f64>,
 }
 
 impl LoadStep {
-    /// The step split in two halves, the stresses passing through the midpoint from `from`.
-    pub fn halves(&self, from: &[f64]) -> (LoadStep, LoadStep) {
+    /// The step split in two halves, stresses and pressures passing through the midpoint from
+    /// where they are (`from_stress`, `from_pressure`).
+    pub fn halves(&self, from_stress: &[f64], from_pressure: &[f64]) -> (LoadStep, LoadStep) {
+        let mid = |to: &[f64], from: &[f64]| -> Vec<f64> {
+            to.iter().zip(from).map(|(t, f)| 0.5 * (t + f)).collect()
+        };
         let half = LoadStep {
             normal_move: self.normal_move.iter().map(|m| 0.5 * m).collect(),
             slide: self.slide.iter().map(|m| 0.5 * m).collect(),
-            stress: self
-                .stress
-                .iter()
-                .zip(from)
-                .map(|(s, f)| 0.5 * (s + f))
-                .collect(),
+            stress: mid(&self.stress, from_stress),
+            pressure: mid(&self.pressure, from_pressure),
         };
         let rest = LoadStep {
             stress: self.stress.clone(),
+            pressure: self.pressure.clone(),
             ..half.clone()
         };
         (half, rest)
@@ -53,6 +58,10 @@ pub struct IncrementEquations<'a> {
     pub pair_index: &'a [usize],
     /// The wall program of this step.
     pub step: &'a LoadStep,
+    /// Membranes (their pressures come from the step).
+    pub membranes: &'a [Membrane],
+    /// Each membrane's chain for this increment.
+    pub chains: &'a [Chain],
     /// Unknowns.
     pub dofs: &'a DofMap,
     /// Pattern and slot maps.
@@ -154,6 +163,79 @@ impl IncrementEquations<'_> {
         Ok(())
     }
 
+    /// Membrane pressures on the chains' grains, and their tangent: a segment `e` from `a` to
+    /// `b` pushes both with `p D / 2` times `R e` (`R` the quarter turn), so
+    /// `K_aa = K_ba = p D / 2 R` and `K_ab = K_bb = -p D / 2 R`. Over a closed chain that
+    /// is symmetric; a symmetric solver takes each segment's symmetric part.
+    fn membrane_loads(&self, residual: &mut [f64], mut tangent: Option<&mut [f64]>) {
+        let quarter = [[0.0, -1.0], [1.0, 0.0]];
+        for (m, membrane) in self.membranes.iter().enumerate() {
+            let chain = &self.chains[m];
+            let pd = self.step.pressure[m] * self.depth;
+            let add = |row: usize, col: usize, k: [[f64; 2]; 2], t: &mut Option<&mut [f64]>| {
+                if let Some(t) = t.as_deref_mut() {
+                    let (r, c) = (self.dofs.grain(row), self.dofs.grain(col));
+                    for (i, k_row) in k.iter().enumerate() {
+                        for (j, k_ij) in k_row.iter().enumerate() {
+                            if let Some(slot) = self.pattern.slot(r + i, c + j) {
+                                t[slot] += k_ij;
+                            }
+                        }
+                    }
+                }
+            };
+            let scaled = |s: f64, k: [[f64; 2]; 2]| k.map(|row| row.map(|v| s * v));
+            for (a, b) in chain.links() {
+                let f = segment_force(self.q.position[a], self.q.position[b], pd);
+                for g in [a, b] {
+                    let d = self.dofs.grain(g);
+                    residual[d] += f[0];
+                    residual[d + 1] += f[1];
+                }
+                // The symmetric part of a segment's block keeps only K_ab = -c R, K_ba = c R.
+                let c = scaled(0.5 * pd, quarter);
+                let minus = scaled(-1.0, c);
+                add(a, b, minus, &mut tangent);
+                add(b, a, c, &mut tangent);
+                if !self.symmetric {
+                    add(a, a, c, &mut tangent);
+                    add(b, b, minus, &mut tangent);
+                }
+            }
+            // A side's end pieces: the first grain carries the side from its start, the last
+            // to its end, inward.
+            if let (MembraneShape::Side { outward }, Some(&first), Some(&last)) =
+                (membrane.shape, chain.grains.first(), chain.grains.last())
+            {
+                let along = chain.along;
+                let proj = |g: usize| {
+                    let p = self.q.position[g];
+                    p[0] * along[0] + p[1] * along[1]
+                };
+                for (g, length, sign) in [
+                    (first, proj(first) - chain.extent[0], 1.0),
+                    (last, chain.extent[1] - proj(last), -1.0),
+                ] {
+                    let d = self.dofs.grain(g);
+                    residual[d] -= pd * length * outward[0];
+                    residual[d + 1] -= pd * length * outward[1];
+                    // d(length)/dx = sign * along; K = -dR/dx = sign pD outward along^T.
+                    let mut k = [[0.0; 2]; 2];
+                    for i in 0..2 {
+                        for j in 0..2 {
+                            k[i][j] = if self.symmetric {
+                                0.5 * sign * pd * (outward[i] * along[j] + along[i] * outward[j])
+                            } else {
+                                sign * pd * outward[i] * along[j]
+                            };
+                        }
+                    }
+                    add(g, g, k, &mut tangent);
+                }
+            }
+        }
+    }
+
     /// Current loaded length of wall `w`: fixed, a circle's circumference, or the gap between
     /// the walls that bound it.
     fn wall_length(&self, w: usize) -> f64 {
@@ -163,7 +245,8 @@ impl IncrementEquations<'_> {
             (None, Some(_)) => 2.0 * std::f64::consts::PI * self.q.wall_line[w],
             (None, None) => match self.walls.span_walls(w) {
                 Some((a, b)) => -(self.q.wall_line[a] + self.q.wall_line[b]),
-                None => 0.0,
+                // Between membranes: the sample's extent along the wall.
+                None => extent_along(&self.q.position, &self.grains.radius, wall.tangent()),
             },
         }
     }
@@ -234,6 +317,7 @@ impl Equations for IncrementEquations<'_> {
                 }
             }
         }
+        self.membrane_loads(residual, tangent);
         // Force scale: the mean contact force, or, while contacts carry (almost) nothing, the
         // wall loads shared over the grains touching the loaded walls.
         let n_c = self.contacts.len().max(1) as f64;

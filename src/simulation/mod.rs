@@ -11,7 +11,7 @@ use crate::assembly::{DofMap, Pattern};
 use crate::contact::{
     kinematics, BrokenBond, Configuration, Contact, ContactLaw, ContactSet, Kinematics,
 };
-use crate::geometry::{FriendSet, GrainSet, WallControl, WallSet};
+use crate::geometry::{Chain, FriendSet, GrainSet, WallControl, WallSet};
 use crate::measure::measure;
 use crate::solver::newton::{self, NewtonSettings, SystemMatrix};
 use crate::solver::stats::{secs, StageTimers};
@@ -49,6 +49,10 @@ pub struct Simulation {
     q: Configuration,
     kin: Vec<Kinematics>,
     pair_index: Vec<usize>,
+    /// Each membrane's chain for the current increment.
+    chains: Vec<Chain>,
+    /// The grain links of those chains, which the pattern holds.
+    links: Vec<(usize, usize)>,
 }
 
 /// What one topology pass changed.
@@ -98,7 +102,13 @@ impl Simulation {
             config.skin * r_mean,
             &state.contacts,
         );
-        let pattern = Arc::new(Pattern::build(&friends, &dofs, &state.walls));
+        let chains: Vec<Chain> = state
+            .membranes
+            .iter()
+            .map(|m| m.chain(&state.grains))
+            .collect();
+        let links: Vec<(usize, usize)> = chains.iter().flat_map(Chain::links).collect();
+        let pattern = Arc::new(Pattern::build(&friends, &dofs, &state.walls, &links));
         let mut sim = Simulation {
             name,
             linear: LinearSolver::new(config.linear),
@@ -113,6 +123,8 @@ impl Simulation {
             q: Configuration::at_rest(&state.grains, &state.walls),
             kin: Vec::new(),
             pair_index: Vec::new(),
+            chains,
+            links,
             values: vec![0.0; pattern.nnz()],
             pattern,
             friends,
@@ -157,8 +169,10 @@ impl Simulation {
             stage: self.state.stage,
             ..Default::default()
         };
-        // Apply the increment: the wall moves and stresses of the next step of the stage.
+        // Apply the increment: the wall moves and stresses of the next step of the stage, and
+        // the membranes on the grains that are outermost now.
         let step = self.next_load_step();
+        self.refresh_chains()?;
         // Solve: Newton + return map + topology, with cut-back.
         self.advance(&step, 0, &mut report)?;
         // Advance the load program.
@@ -195,6 +209,16 @@ impl Simulation {
                 .map(|(w, target)| match target {
                     Some(t) => w.stress + (t - w.stress) / left,
                     None => w.stress,
+                })
+                .collect(),
+            pressure: self
+                .state
+                .membranes
+                .iter()
+                .zip(&stage.pressure)
+                .map(|(m, target)| match target {
+                    Some(t) => m.pressure + (t - m.pressure) / left,
+                    None => m.pressure,
                 })
                 .collect(),
         }
@@ -238,8 +262,9 @@ impl Simulation {
                 }
                 report.cuts += 1;
                 self.stats.counters.cuts += 1;
-                let from: Vec<f64> = self.state.walls.walls.iter().map(|w| w.stress).collect();
-                let (first, second) = step.halves(&from);
+                let stress: Vec<f64> = self.state.walls.walls.iter().map(|w| w.stress).collect();
+                let pressure: Vec<f64> = self.state.membranes.iter().map(|m| m.pressure).collect();
+                let (first, second) = step.halves(&stress, &pressure);
                 self.advance(&first, depth + 1, report)?;
                 self.advance(&second, depth + 1, report)
             }
@@ -297,6 +322,8 @@ impl Simulation {
             contacts: &mut self.state.contacts.contacts,
             pair_index: &self.pair_index,
             step,
+            membranes: &self.state.membranes,
+            chains: &self.chains,
             dofs: &self.dofs,
             pattern: &self.pattern,
             law: self.law.as_ref(),
@@ -459,11 +486,46 @@ impl Simulation {
             .friends_wall_reference
             .clone_from(&friends.wall_reference);
         self.friends = friends;
-        self.pattern = Arc::new(Pattern::build(&self.friends, &self.dofs, &self.state.walls));
+        self.pattern = Arc::new(Pattern::build(
+            &self.friends,
+            &self.dofs,
+            &self.state.walls,
+            &self.links,
+        ));
         self.values = vec![0.0; self.pattern.nnz()];
         self.stats.counters.friends_rebuilds += 1;
         self.stats.timers.detection += secs(start);
         self.analyse_pattern()
+    }
+
+    /// Each membrane's chain from the committed positions; a chain linking grains the pattern
+    /// does not link yet needs a new pattern.
+    fn refresh_chains(&mut self) -> Result<(), NumericError> {
+        if self.state.membranes.is_empty() {
+            return Ok(());
+        }
+        self.chains = self
+            .state
+            .membranes
+            .iter()
+            .map(|m| m.chain(&self.state.grains))
+            .collect();
+        let links: Vec<(usize, usize)> = self.chains.iter().flat_map(Chain::links).collect();
+        let missing = links
+            .iter()
+            .any(|&(a, b)| !self.pattern.links(&self.dofs, a, b));
+        if missing {
+            self.links = links;
+            self.pattern = Arc::new(Pattern::build(
+                &self.friends,
+                &self.dofs,
+                &self.state.walls,
+                &self.links,
+            ));
+            self.values = vec![0.0; self.pattern.nnz()];
+            self.analyse_pattern()?;
+        }
+        Ok(())
     }
 
     /// Symbolic factorisation of the pattern, and each contact's block in it.
@@ -520,6 +582,9 @@ impl Simulation {
                 wall.stress = step.stress[w];
             }
         }
+        for (m, p) in self.state.membranes.iter_mut().zip(&step.pressure) {
+            m.pressure = *p;
+        }
         self.state.contacts.commit();
         self.q = Configuration::at_rest(&self.state.grains, &self.state.walls);
     }
@@ -531,6 +596,7 @@ impl Simulation {
             normal_move: vec![0.0; self.state.walls.len()],
             slide: vec![0.0; self.state.walls.len()],
             stress: self.state.walls.walls.iter().map(|w| w.stress).collect(),
+            pressure: self.state.membranes.iter().map(|m| m.pressure).collect(),
         };
         let u = vec![0.0; self.dofs.len];
         let mut r = vec![0.0; self.dofs.len];
@@ -640,5 +706,21 @@ mod tests {
         let scene = samples::crystal_biaxial(5, 6, 1e6, 3e6);
         let e = tangent_error(&scene, LinearKind::Lu, SlipTangent::Consistent);
         assert!(e < 1e-5, "crystal: relative error {e:e}");
+        // Membranes on a side and all around.
+        let mut scene = samples::hertz_patch(6, 5, 1, 0.6, 0.1, 0);
+        for (name, side, ring) in [
+            ("east", Some([1.0, 0.0]), None),
+            ("around", None, Some([5e-4, 5e-4])),
+        ] {
+            scene.membranes.push(crate::scene::MembraneSpec {
+                name: name.into(),
+                side,
+                ring,
+                pressure: 1e5,
+            });
+            scene.stages[0].stress.insert(name.into(), 2e5);
+        }
+        let e = tangent_error(&scene, LinearKind::Lu, SlipTangent::Consistent);
+        assert!(e < 1e-5, "membranes: relative error {e:e}");
     }
 }

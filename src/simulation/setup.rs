@@ -6,8 +6,10 @@ use crate::contact::{
     hertz_stiffness, kappa, mean_radius, Contact, ContactLaw, ContactParams, ContactSet,
     HertzMindlin, LinearCohesive,
 };
-use crate::geometry::{FriendSet, GrainSet, Pair, Side, Wall, WallControl, WallSet};
-use crate::scene::{CohesionRadius, LawKind, Scene};
+use crate::geometry::{
+    Circle, FriendSet, GrainSet, Membrane, MembraneShape, Pair, Side, Wall, WallControl, WallSet,
+};
+use crate::scene::{CircleSide, CohesionRadius, LawKind, Scene};
 use crate::solver::SolverConfig;
 use crate::state::State;
 use crate::{Error, InputError};
@@ -128,11 +130,13 @@ pub struct StageProgram {
     pub normal_move: Vec<f64>,
     /// Move along each wall over the stage (m).
     pub slide: Vec<f64>,
+    /// Pressure each membrane reaches at the end of the stage (`None`: unchanged).
+    pub pressure: Vec<Option<f64>>,
 }
 
 /// The walls of a scene: the four of `box` (bottom, right, top, left) on the grains' bounding
 /// box, then the explicit ones.
-pub fn build_walls(scene: &Scene, grains: &GrainSet, file: &str) -> Result<WallSet, InputError> {
+pub fn build_walls(scene: &Scene, grains: &GrainSet) -> WallSet {
     let mut walls = Vec::new();
     if let Some(b) = &scene.wall_box {
         let [x0, y0, x1, y1] = grains.bounding_box();
@@ -178,26 +182,54 @@ pub fn build_walls(scene: &Scene, grains: &GrainSet, file: &str) -> Result<WallS
             circle: None,
         });
     }
-    let set = WallSet { walls };
-    for (w, wall) in set.walls.iter().enumerate() {
-        if wall.control == WallControl::Stress && set.length(w).is_none() {
-            return Err(InputError::new(
-                file,
-                format!(
-                    "stress-controlled wall `{}` needs a `length`, or two facing walls \
-                     perpendicular to it that bound it",
-                    wall.name
-                ),
-            )
-            .at_key("walls"));
-        }
+    for spec in &scene.circles {
+        walls.push(Wall {
+            name: spec.name.clone(),
+            normal: [0.0; 2],
+            offset: 0.0,
+            position: 0.0,
+            slide: 0.0,
+            control: spec.control,
+            stress: spec.stress,
+            length: None,
+            friction: spec.friction.value(),
+            circle: Some(Circle {
+                center: spec.center,
+                radius: spec.radius,
+                grains_inside: spec.grains == CircleSide::Inside,
+            }),
+        });
     }
-    Ok(set)
+    WallSet { walls }
 }
 
-/// The load program with wall names resolved.
-pub fn build_stages(scene: &Scene, walls: &WallSet) -> Vec<StageProgram> {
+/// The membranes of a scene.
+pub fn build_membranes(scene: &Scene) -> Vec<Membrane> {
+    scene
+        .membranes
+        .iter()
+        .map(|m| Membrane {
+            name: m.name.clone(),
+            shape: match (m.side, m.ring) {
+                (Some(v), _) => {
+                    let len = v[0].hypot(v[1]);
+                    MembraneShape::Side {
+                        outward: [v[0] / len, v[1] / len],
+                    }
+                }
+                (None, c) => MembraneShape::Ring {
+                    center: c.unwrap_or([0.0; 2]),
+                },
+            },
+            pressure: m.pressure,
+        })
+        .collect()
+}
+
+/// The load program with wall and membrane names resolved.
+pub fn build_stages(scene: &Scene, walls: &WallSet, membranes: &[Membrane]) -> Vec<StageProgram> {
     let index = |name: &str| walls.walls.iter().position(|w| w.name == name);
+    let membrane = |name: &str| membranes.iter().position(|m| m.name == name);
     scene
         .stages
         .iter()
@@ -208,10 +240,13 @@ pub fn build_stages(scene: &Scene, walls: &WallSet) -> Vec<StageProgram> {
                 stress: vec![None; walls.len()],
                 normal_move: vec![0.0; walls.len()],
                 slide: vec![0.0; walls.len()],
+                pressure: vec![None; membranes.len()],
             };
             for (name, v) in &s.stress {
                 if let Some(w) = index(name) {
                     stage.stress[w] = Some(*v);
+                } else if let Some(m) = membrane(name) {
+                    stage.pressure[m] = Some(*v);
                 }
             }
             for (name, v) in &s.displacement {
@@ -278,13 +313,14 @@ impl Simulation {
                 .at_key("grains")
                 .into());
         }
-        let walls = build_walls(scene, &grains, file)?;
+        let walls = build_walls(scene, &grains);
         let material = MaterialModel::from_scene(scene);
         let depth = scene
             .material
             .depth
             .unwrap_or_else(|| 2.0 * grains.mean_radius());
-        let stages = build_stages(scene, &walls);
+        let membranes = build_membranes(scene);
+        let stages = build_stages(scene, &walls, &membranes);
         let skin = config.skin * grains.mean_radius();
         let contacts = initial_contacts(&material, &grains, &walls, skin);
         let state = State {
@@ -296,6 +332,7 @@ impl Simulation {
             grains,
             walls,
             contacts,
+            membranes,
         };
         Ok(Simulation::from_state(
             scene.name.clone(),
@@ -317,7 +354,7 @@ impl Simulation {
         config: SolverConfig,
     ) -> Result<Simulation, Error> {
         let material = MaterialModel::from_scene(scene);
-        let stages = build_stages(scene, &state.walls);
+        let stages = build_stages(scene, &state.walls, &state.membranes);
         Ok(Simulation::from_state(
             scene.name.clone(),
             config,

@@ -218,8 +218,9 @@ pub fn solve(
                     if truncated {
                         trust = (2.0 * trust).min(settings.max_step);
                     }
-                } else {
-                    trust = (alpha * length.min(trust)).max(1e-12);
+                } else if truncated {
+                    // The trust region was the limit, and still too long a step.
+                    trust = (alpha * trust).max(1e-12);
                 }
                 break;
             }
