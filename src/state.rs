@@ -56,6 +56,27 @@ pub struct IncrementReport {
 }
 
 impl State {
+    /// The state of a fresh sample: nothing done yet, the friends lists to be made where
+    /// everything is now.
+    pub fn fresh(
+        grains: GrainSet,
+        walls: WallSet,
+        contacts: ContactSet,
+        membranes: Vec<Membrane>,
+    ) -> State {
+        State {
+            increment: 0,
+            stage: 0,
+            stage_increment: 0,
+            friends_reference: grains.position.clone(),
+            friends_wall_reference: walls.walls.iter().map(|w| [w.position, w.slide]).collect(),
+            grains,
+            walls,
+            contacts,
+            membranes,
+        }
+    }
+
     /// Keep only the walls named in `keep`, dropping the others with their contacts: how a
     /// test changes the boundary a sample was prepared in (a borehole freed of its plug, the
     /// sides of a biaxial test handed to membranes).

@@ -10,14 +10,17 @@
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use std::str::FromStr;
 
 use hdf5::types::VarLenUnicode;
-use hdf5::{Dataset, Extent, File, Group, H5Type, Location};
-use ndarray::{s, Array1, ArrayView, ArrayView1, ArrayView2};
+use hdf5::{Extent, File, Group, H5Type};
+use ndarray::{s, Array1, ArrayView1, ArrayView2};
 
+use super::h5::{
+    dataset, get_attr, get_count, get_str_attr, input_error, put, put_strings, put_text,
+    read_error, read_rows, read_vec, set_attr, set_str_attr, write_error, Fail, R,
+};
 use crate::contact::{BreakMode, BrokenBond, Contact, ContactParams, ContactSet, Response};
-use crate::error::{Error, InputError};
+use crate::error::Error;
 use crate::geometry::{
     Circle, GrainSet, Membrane, MembraneShape, Pair, Side, Wall, WallControl, WallSet,
 };
@@ -29,12 +32,6 @@ pub const FORMAT: &str = "grainstat-result";
 
 /// Version of the layout, root attribute `format_version`.
 pub const FORMAT_VERSION: i64 = 1;
-
-/// Datasets with fewer elements than this are stored plain: filters on tiny data only cost.
-const CHUNK_THRESHOLD: usize = 512;
-
-/// Elements per chunk of a large dataset (128 KiB of f64).
-const CHUNK_ELEMENTS: usize = 16_384;
 
 /// Rows per chunk of the growable `/history` datasets.
 const HISTORY_CHUNK: usize = 256;
@@ -133,43 +130,6 @@ pub struct ResultFile {
     grains: usize,
     walls: usize,
     history_rows: usize,
-}
-
-/// An internal failure with its message; turned into [`Error::Io`] when writing and into
-/// [`Error::Input`] when reading a file the user gave.
-#[derive(Debug)]
-struct Fail(String);
-
-impl From<hdf5::Error> for Fail {
-    fn from(e: hdf5::Error) -> Self {
-        Fail(e.to_string())
-    }
-}
-
-impl From<ndarray::ShapeError> for Fail {
-    fn from(e: ndarray::ShapeError) -> Self {
-        Fail(e.to_string())
-    }
-}
-
-impl From<String> for Fail {
-    fn from(s: String) -> Self {
-        Fail(s)
-    }
-}
-
-type R<T> = std::result::Result<T, Fail>;
-
-fn input_error(path: &Path, message: impl Into<String>) -> Error {
-    Error::Input(InputError::new(path.display().to_string(), message))
-}
-
-fn read_error(path: &Path) -> impl FnOnce(Fail) -> Error + '_ {
-    move |f| input_error(path, f.0)
-}
-
-fn write_error(path: &Path) -> impl FnOnce(Fail) -> Error + '_ {
-    move |f| Error::io(path.display(), f.0)
 }
 
 impl ResultFile {
@@ -603,122 +563,6 @@ fn increment_groups(inc: &Group) -> R<Vec<(usize, String, bool)>> {
 
 // ---------------------------------------------------------------------------------------
 // Small helpers.
-
-/// Set a scalar attribute, writing over an existing one.
-fn set_attr<T: H5Type>(loc: &Location, name: &str, value: &T) -> R<()> {
-    match loc.attr(name) {
-        Ok(a) => a.write_scalar(value)?,
-        Err(_) => loc.new_attr::<T>().create(name)?.write_scalar(value)?,
-    }
-    Ok(())
-}
-
-fn set_str_attr(loc: &Location, name: &str, value: &str) -> R<()> {
-    set_attr(loc, name, &vlen(value)?)
-}
-
-fn vlen(s: &str) -> R<VarLenUnicode> {
-    VarLenUnicode::from_str(s).map_err(|e| Fail(format!("string {s:?}: {e}")))
-}
-
-fn get_attr<T: H5Type>(loc: &Location, name: &str) -> R<T> {
-    loc.attr(name)
-        .and_then(|a| a.read_scalar::<T>())
-        .map_err(|e| Fail(format!("attribute `{name}` of `{}`: {e}", loc.name())))
-}
-
-fn get_str_attr(loc: &Location, name: &str) -> R<String> {
-    Ok(get_attr::<VarLenUnicode>(loc, name)?.as_str().to_owned())
-}
-
-fn get_count(loc: &Location, name: &str) -> R<usize> {
-    let v = get_attr::<i64>(loc, name)?;
-    usize::try_from(v).map_err(|_| Fail(format!("attribute `{name}` of `{}` is {v}", loc.name())))
-}
-
-/// Write a dataset: chunked, shuffled and deflated when large, plain when small. Zero-size
-/// arrays are plain too (HDF5 cannot chunk them).
-fn put<T: H5Type, D: ndarray::Dimension>(g: &Group, name: &str, data: ArrayView<T, D>) -> R<()> {
-    let shape = data.shape().to_vec();
-    let builder = g.new_dataset_builder();
-    if data.len() >= CHUNK_THRESHOLD {
-        let row = shape[1..].iter().product::<usize>().max(1);
-        let mut chunk = shape.clone();
-        chunk[0] = (CHUNK_ELEMENTS / row).clamp(1, shape[0]);
-        let builder = builder.with_data(data).chunk(chunk).shuffle();
-        if hdf5::filters::deflate_available() {
-            builder.deflate(4).create(name)?;
-        } else {
-            builder.create(name)?;
-        }
-    } else {
-        builder.with_data(data).create(name)?;
-    }
-    Ok(())
-}
-
-fn put_strings(g: &Group, name: &str, values: &[String]) -> R<()> {
-    let v = values.iter().map(|s| vlen(s)).collect::<R<Vec<_>>>()?;
-    put(g, name, ArrayView1::from(&v[..]))
-}
-
-fn put_text(g: &Group, name: &str, text: &str) -> R<()> {
-    g.new_dataset::<VarLenUnicode>()
-        .create(name)?
-        .write_scalar(&vlen(text)?)?;
-    Ok(())
-}
-
-fn dataset(g: &Group, name: &str) -> R<Dataset> {
-    g.dataset(name)
-        .map_err(|e| Fail(format!("dataset `{}/{name}`: {e}", g.name())))
-}
-
-/// A 1-D dataset, of length `len` when given.
-fn read_vec<T: H5Type>(g: &Group, name: &str, len: Option<usize>) -> R<Vec<T>> {
-    let ds = dataset(g, name)?;
-    let shape = ds.shape();
-    if shape.len() != 1 || len.is_some_and(|n| n != shape[0]) {
-        return Err(Fail(format!(
-            "dataset `{}/{name}` has shape {shape:?}, expected ({},)",
-            g.name(),
-            len.map_or("n".into(), |n| n.to_string())
-        )));
-    }
-    ds.read_raw::<T>()
-        .map_err(|e| Fail(format!("dataset `{}/{name}`: {e}", g.name())))
-}
-
-/// An n x C dataset as rows, with n = `len` when given.
-fn read_rows<T: H5Type + Copy + Default, const C: usize>(
-    g: &Group,
-    name: &str,
-    len: Option<usize>,
-) -> R<Vec<[T; C]>> {
-    let ds = dataset(g, name)?;
-    let shape = ds.shape();
-    if shape.len() != 2 || shape[1] != C || len.is_some_and(|n| n != shape[0]) {
-        return Err(Fail(format!(
-            "dataset `{}/{name}` has shape {shape:?}, expected ({}, {C})",
-            g.name(),
-            len.map_or("n".into(), |n| n.to_string())
-        )));
-    }
-    let raw = ds
-        .read_raw::<T>()
-        .map_err(|e| Fail(format!("dataset `{}/{name}`: {e}", g.name())))?;
-    if raw.len() != shape[0] * C {
-        return Err(Fail(format!("dataset `{}/{name}` is short", g.name())));
-    }
-    Ok(raw
-        .chunks_exact(C)
-        .map(|c| {
-            let mut row = [T::default(); C];
-            row.copy_from_slice(c);
-            row
-        })
-        .collect())
-}
 
 fn control_name(c: WallControl) -> &'static str {
     match c {

@@ -3,6 +3,7 @@
 //! the solver's timers and counters. The layout is documented for Python users in
 //! `docs/hdf5-layout.md`.
 
+pub(crate) mod h5;
 pub mod hdf5_file;
 
 pub use hdf5_file::{

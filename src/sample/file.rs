@@ -20,27 +20,23 @@
 
 use std::fmt::Write as _;
 use std::path::Path;
-use std::str::FromStr;
 
 use hdf5::types::VarLenUnicode;
-use hdf5::{Dataset, File, Group, H5Type, Location};
-use ndarray::{ArrayView, ArrayView1, ArrayView2};
+use hdf5::File;
+use ndarray::{ArrayView1, ArrayView2};
 
 use super::{Region, SizeDistribution, SizeKind};
-use crate::error::{Error, InputError};
+use crate::error::Error;
 use crate::geometry::GrainSet;
+use crate::output::h5::{
+    get_attr, get_str_attr, input_error, put, read_rows, read_vec, set_attr, set_str_attr, Fail, R,
+};
 
 /// Value of the root attribute `format`: tells sample files from other HDF5 files.
 pub const FORMAT: &str = "grainstat-sample";
 
 /// Version of the layout, root attribute `format_version`.
 pub const FORMAT_VERSION: i64 = 1;
-
-/// Datasets with fewer elements than this are stored plain: filters on tiny data only cost.
-const CHUNK_THRESHOLD: usize = 512;
-
-/// Elements per chunk of a large dataset (128 KiB of f64).
-const CHUNK_ELEMENTS: usize = 16_384;
 
 /// A prepared sample: the grains as they are, how they were made, and what holds them.
 #[derive(Debug, Clone, PartialEq)]
@@ -333,29 +329,6 @@ fn region_dimensions(region: &Region) -> [(&'static str, f64); 2] {
 // ---------------------------------------------------------------------------------------
 // Opening and errors (as in `output::hdf5_file`).
 
-/// An internal failure with its message; an [`Error::Io`] when writing, an
-/// [`Error::Input`] when reading.
-#[derive(Debug)]
-struct Fail(String);
-
-impl From<hdf5::Error> for Fail {
-    fn from(e: hdf5::Error) -> Self {
-        Fail(e.to_string())
-    }
-}
-
-impl From<ndarray::ShapeError> for Fail {
-    fn from(e: ndarray::ShapeError) -> Self {
-        Fail(e.to_string())
-    }
-}
-
-type R<T> = std::result::Result<T, Fail>;
-
-fn input_error(path: &Path, message: impl Into<String>) -> Error {
-    Error::Input(InputError::new(path.display().to_string(), message))
-}
-
 /// Open a sample file the user named: missing, a directory, not HDF5, or an HDF5 file that
 /// is not a sample are all input errors.
 fn open_existing(path: &Path) -> Result<File, Error> {
@@ -390,99 +363,3 @@ fn open_existing(path: &Path) -> Result<File, Error> {
 
 // ---------------------------------------------------------------------------------------
 // Small helpers.
-
-/// Set a scalar attribute, writing over an existing one.
-fn set_attr<T: H5Type>(loc: &Location, name: &str, value: &T) -> R<()> {
-    match loc.attr(name) {
-        Ok(a) => a.write_scalar(value)?,
-        Err(_) => loc.new_attr::<T>().create(name)?.write_scalar(value)?,
-    }
-    Ok(())
-}
-
-fn set_str_attr(loc: &Location, name: &str, value: &str) -> R<()> {
-    let v = VarLenUnicode::from_str(value).map_err(|e| Fail(format!("string {value:?}: {e}")))?;
-    set_attr(loc, name, &v)
-}
-
-fn get_attr<T: H5Type>(loc: &Location, name: &str) -> R<T> {
-    loc.attr(name)
-        .and_then(|a| a.read_scalar::<T>())
-        .map_err(|e| Fail(format!("attribute `{name}` of `{}`: {e}", loc.name())))
-}
-
-fn get_str_attr(loc: &Location, name: &str) -> R<String> {
-    Ok(get_attr::<VarLenUnicode>(loc, name)?.as_str().to_owned())
-}
-
-/// Write a dataset: chunked, shuffled and deflated when large, plain when small. Zero-size
-/// arrays are plain too (HDF5 cannot chunk them).
-fn put<T: H5Type, D: ndarray::Dimension>(g: &Group, name: &str, data: ArrayView<T, D>) -> R<()> {
-    let shape = data.shape().to_vec();
-    let builder = g.new_dataset_builder();
-    if data.len() >= CHUNK_THRESHOLD {
-        let row = shape[1..].iter().product::<usize>().max(1);
-        let mut chunk = shape.clone();
-        chunk[0] = (CHUNK_ELEMENTS / row).clamp(1, shape[0]);
-        let builder = builder.with_data(data).chunk(chunk).shuffle();
-        if hdf5::filters::deflate_available() {
-            builder.deflate(4).create(name)?;
-        } else {
-            builder.create(name)?;
-        }
-    } else {
-        builder.with_data(data).create(name)?;
-    }
-    Ok(())
-}
-
-fn dataset(g: &Group, name: &str) -> R<Dataset> {
-    g.dataset(name)
-        .map_err(|e| Fail(format!("dataset `{}/{name}`: {e}", g.name())))
-}
-
-/// A 1-D dataset, of length `len` when given.
-fn read_vec<T: H5Type>(g: &Group, name: &str, len: Option<usize>) -> R<Vec<T>> {
-    let ds = dataset(g, name)?;
-    let shape = ds.shape();
-    if shape.len() != 1 || len.is_some_and(|n| n != shape[0]) {
-        return Err(Fail(format!(
-            "dataset `{}/{name}` has shape {shape:?}, expected ({},)",
-            g.name(),
-            len.map_or("n".into(), |n| n.to_string())
-        )));
-    }
-    ds.read_raw::<T>()
-        .map_err(|e| Fail(format!("dataset `{}/{name}`: {e}", g.name())))
-}
-
-/// An n x C dataset as rows, with n = `len` when given.
-fn read_rows<T: H5Type + Copy + Default, const C: usize>(
-    g: &Group,
-    name: &str,
-    len: Option<usize>,
-) -> R<Vec<[T; C]>> {
-    let ds = dataset(g, name)?;
-    let shape = ds.shape();
-    if shape.len() != 2 || shape[1] != C || len.is_some_and(|n| n != shape[0]) {
-        return Err(Fail(format!(
-            "dataset `{}/{name}` has shape {shape:?}, expected ({}, {C})",
-            g.name(),
-            len.map_or("n".into(), |n| n.to_string())
-        )));
-    }
-    let raw = ds
-        .read_raw::<T>()
-        .map_err(|e| Fail(format!("dataset `{}/{name}`: {e}", g.name())))?;
-    if raw.len() != shape[0] * C {
-        return Err(Fail(format!("dataset `{}/{name}` is short", g.name())));
-    }
-    Ok(raw
-        .chunks_exact(C)
-        .map(|c| {
-            let mut row = [T::default(); C];
-            row.copy_from_slice(c);
-            row
-        })
-        .collect())
-}

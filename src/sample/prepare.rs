@@ -221,17 +221,7 @@ pub fn prepare(
         slide: vec![0.0; walls.len()],
         pressure: Vec::new(),
     };
-    let state = State {
-        increment: 0,
-        stage: 0,
-        stage_increment: 0,
-        friends_reference: grains.position.clone(),
-        friends_wall_reference: walls.walls.iter().map(|w| [w.position, w.slide]).collect(),
-        grains,
-        walls,
-        contacts,
-        membranes: Vec::new(),
-    };
+    let state = State::fresh(grains, walls, contacts, Vec::new());
     // The consistent tangent: near rest many contacts sit on the Coulomb limit, where the
     // elasto-plastic one converges only linearly; this solve is made once per sample. The
     // load is held, so halving the step would not help.

@@ -486,6 +486,14 @@ impl Simulation {
             .friends_wall_reference
             .clone_from(&friends.wall_reference);
         self.friends = friends;
+        self.stats.counters.friends_rebuilds += 1;
+        self.stats.timers.detection += secs(start);
+        self.install_pattern()
+    }
+
+    /// The pattern of the friends lists and membrane links, with its value buffer and its
+    /// symbolic factorisation.
+    fn install_pattern(&mut self) -> Result<(), NumericError> {
         self.pattern = Arc::new(Pattern::build(
             &self.friends,
             &self.dofs,
@@ -493,8 +501,6 @@ impl Simulation {
             &self.links,
         ));
         self.values = vec![0.0; self.pattern.nnz()];
-        self.stats.counters.friends_rebuilds += 1;
-        self.stats.timers.detection += secs(start);
         self.analyse_pattern()
     }
 
@@ -516,14 +522,7 @@ impl Simulation {
             .any(|&(a, b)| !self.pattern.links(&self.dofs, a, b));
         if missing {
             self.links = links;
-            self.pattern = Arc::new(Pattern::build(
-                &self.friends,
-                &self.dofs,
-                &self.state.walls,
-                &self.links,
-            ));
-            self.values = vec![0.0; self.pattern.nnz()];
-            self.analyse_pattern()?;
+            self.install_pattern()?;
         }
         Ok(())
     }

@@ -323,17 +323,7 @@ impl Simulation {
         let stages = build_stages(scene, &walls, &membranes);
         let skin = config.skin * grains.mean_radius();
         let contacts = initial_contacts(&material, &grains, &walls, skin);
-        let state = State {
-            increment: 0,
-            stage: 0,
-            stage_increment: 0,
-            friends_reference: grains.position.clone(),
-            friends_wall_reference: walls.walls.iter().map(|w| [w.position, w.slide]).collect(),
-            grains,
-            walls,
-            contacts,
-            membranes,
-        };
+        let state = State::fresh(grains, walls, contacts, membranes);
         Ok(Simulation::from_state(
             scene.name.clone(),
             config,

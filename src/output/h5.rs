@@ -1,0 +1,174 @@
+//! HDF5 helpers shared by the result file and the sample file: attributes, datasets written
+//! chunked and compressed when large, read back with their shapes checked, and an internal
+//! failure type that becomes an input error (reading a file the user gave) or an I/O error
+//! (writing).
+
+use crate::{Error, InputError};
+use hdf5::types::VarLenUnicode;
+use hdf5::{Dataset, Group, H5Type, Location};
+use ndarray::{ArrayView, ArrayView1};
+use std::path::Path;
+use std::str::FromStr;
+
+/// Datasets with fewer elements than this are stored plain: filters on tiny data only cost.
+const CHUNK_THRESHOLD: usize = 512;
+
+/// Elements per chunk of a large dataset (128 KiB of f64).
+const CHUNK_ELEMENTS: usize = 16_384;
+
+/// An internal failure with its message; turned into [`Error::Io`] when writing and into
+/// [`Error::Input`] when reading a file the user gave.
+#[derive(Debug)]
+pub(crate) struct Fail(pub(crate) String);
+
+impl From<hdf5::Error> for Fail {
+    fn from(e: hdf5::Error) -> Self {
+        Fail(e.to_string())
+    }
+}
+
+impl From<ndarray::ShapeError> for Fail {
+    fn from(e: ndarray::ShapeError) -> Self {
+        Fail(e.to_string())
+    }
+}
+
+impl From<String> for Fail {
+    fn from(s: String) -> Self {
+        Fail(s)
+    }
+}
+
+pub(crate) type R<T> = std::result::Result<T, Fail>;
+
+pub(crate) fn input_error(path: &Path, message: impl Into<String>) -> Error {
+    Error::Input(InputError::new(path.display().to_string(), message))
+}
+
+pub(crate) fn read_error(path: &Path) -> impl FnOnce(Fail) -> Error + '_ {
+    move |f| input_error(path, f.0)
+}
+
+pub(crate) fn write_error(path: &Path) -> impl FnOnce(Fail) -> Error + '_ {
+    move |f| Error::io(path.display(), f.0)
+}
+
+/// Set a scalar attribute, writing over an existing one.
+pub(crate) fn set_attr<T: H5Type>(loc: &Location, name: &str, value: &T) -> R<()> {
+    match loc.attr(name) {
+        Ok(a) => a.write_scalar(value)?,
+        Err(_) => loc.new_attr::<T>().create(name)?.write_scalar(value)?,
+    }
+    Ok(())
+}
+
+pub(crate) fn set_str_attr(loc: &Location, name: &str, value: &str) -> R<()> {
+    set_attr(loc, name, &vlen(value)?)
+}
+
+pub(crate) fn vlen(s: &str) -> R<VarLenUnicode> {
+    VarLenUnicode::from_str(s).map_err(|e| Fail(format!("string {s:?}: {e}")))
+}
+
+pub(crate) fn get_attr<T: H5Type>(loc: &Location, name: &str) -> R<T> {
+    loc.attr(name)
+        .and_then(|a| a.read_scalar::<T>())
+        .map_err(|e| Fail(format!("attribute `{name}` of `{}`: {e}", loc.name())))
+}
+
+pub(crate) fn get_str_attr(loc: &Location, name: &str) -> R<String> {
+    Ok(get_attr::<VarLenUnicode>(loc, name)?.as_str().to_owned())
+}
+
+pub(crate) fn get_count(loc: &Location, name: &str) -> R<usize> {
+    let v = get_attr::<i64>(loc, name)?;
+    usize::try_from(v).map_err(|_| Fail(format!("attribute `{name}` of `{}` is {v}", loc.name())))
+}
+
+/// Write a dataset: chunked, shuffled and deflated when large, plain when small. Zero-size
+/// arrays are plain too (HDF5 cannot chunk them).
+pub(crate) fn put<T: H5Type, D: ndarray::Dimension>(
+    g: &Group,
+    name: &str,
+    data: ArrayView<T, D>,
+) -> R<()> {
+    let shape = data.shape().to_vec();
+    let builder = g.new_dataset_builder();
+    if data.len() >= CHUNK_THRESHOLD {
+        let row = shape[1..].iter().product::<usize>().max(1);
+        let mut chunk = shape.clone();
+        chunk[0] = (CHUNK_ELEMENTS / row).clamp(1, shape[0]);
+        let builder = builder.with_data(data).chunk(chunk).shuffle();
+        if hdf5::filters::deflate_available() {
+            builder.deflate(4).create(name)?;
+        } else {
+            builder.create(name)?;
+        }
+    } else {
+        builder.with_data(data).create(name)?;
+    }
+    Ok(())
+}
+
+pub(crate) fn put_strings(g: &Group, name: &str, values: &[String]) -> R<()> {
+    let v = values.iter().map(|s| vlen(s)).collect::<R<Vec<_>>>()?;
+    put(g, name, ArrayView1::from(&v[..]))
+}
+
+pub(crate) fn put_text(g: &Group, name: &str, text: &str) -> R<()> {
+    g.new_dataset::<VarLenUnicode>()
+        .create(name)?
+        .write_scalar(&vlen(text)?)?;
+    Ok(())
+}
+
+pub(crate) fn dataset(g: &Group, name: &str) -> R<Dataset> {
+    g.dataset(name)
+        .map_err(|e| Fail(format!("dataset `{}/{name}`: {e}", g.name())))
+}
+
+/// A 1-D dataset, of length `len` when given.
+pub(crate) fn read_vec<T: H5Type>(g: &Group, name: &str, len: Option<usize>) -> R<Vec<T>> {
+    let ds = dataset(g, name)?;
+    let shape = ds.shape();
+    if shape.len() != 1 || len.is_some_and(|n| n != shape[0]) {
+        return Err(Fail(format!(
+            "dataset `{}/{name}` has shape {shape:?}, expected ({},)",
+            g.name(),
+            len.map_or("n".into(), |n| n.to_string())
+        )));
+    }
+    ds.read_raw::<T>()
+        .map_err(|e| Fail(format!("dataset `{}/{name}`: {e}", g.name())))
+}
+
+/// An n x C dataset as rows, with n = `len` when given.
+pub(crate) fn read_rows<T: H5Type + Copy + Default, const C: usize>(
+    g: &Group,
+    name: &str,
+    len: Option<usize>,
+) -> R<Vec<[T; C]>> {
+    let ds = dataset(g, name)?;
+    let shape = ds.shape();
+    if shape.len() != 2 || shape[1] != C || len.is_some_and(|n| n != shape[0]) {
+        return Err(Fail(format!(
+            "dataset `{}/{name}` has shape {shape:?}, expected ({}, {C})",
+            g.name(),
+            len.map_or("n".into(), |n| n.to_string())
+        )));
+    }
+    let raw = ds
+        .read_raw::<T>()
+        .map_err(|e| Fail(format!("dataset `{}/{name}`: {e}", g.name())))?;
+    if raw.len() != shape[0] * C {
+        return Err(Fail(format!("dataset `{}/{name}` is short", g.name())));
+    }
+    Ok(raw
+        .chunks_exact(C)
+        .map(|c| {
+            let mut row = [T::default(); C];
+            row.copy_from_slice(c);
+            row
+        })
+        .collect())
+}
