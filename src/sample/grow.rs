@@ -95,6 +95,7 @@ pub fn grow(
         .collect();
 
     let skin = 0.5 * r_mean;
+    let r_max = full.iter().cloned().fold(0.0, f64::max);
     let mut friends = FriendSet::build(&now, walls, skin);
     let mut shear = vec![0.0f64; friends.pairs.len()];
     let mut radius_at_build = start;
@@ -108,8 +109,9 @@ pub fn grow(
         for (r, f) in now.radius.iter_mut().zip(&full) {
             *r = scale * f;
         }
-        // Friends lists: rebuilt once something moved, or grew, by half the skin.
-        let grown = (scale - radius_at_build) * r_mean * 2.0;
+        // Friends lists: rebuilt once something moved, or two of the largest grains grew
+        // towards each other, by half the skin.
+        let grown = (scale - radius_at_build) * 2.0 * r_max;
         if grown > 0.5 * skin || friends.is_stale(&now, walls) {
             let old = std::mem::replace(&mut friends, FriendSet::build(&now, walls, skin));
             shear = friends
