@@ -55,6 +55,9 @@ pub struct Simulation {
     links: Vec<(usize, usize)>,
 }
 
+/// Overlap, in mean radii, within which a contact keeps its state (made or lost).
+const CHATTER: f64 = 1e-12;
+
 /// What one topology pass changed.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 struct TopologyChange {
@@ -402,6 +405,10 @@ impl Simulation {
         let start = Instant::now();
         let mut change = TopologyChange::default();
         let increment = self.state.increment + 1;
+        // Contacts are lost below -chatter and made above +chatter: at rest, overlaps at the
+        // round-off level would otherwise flip contacts on and off from pass to pass. A
+        // linear contact kept in between carries at most k * chatter, a Hertz one nothing.
+        let chatter = CHATTER * self.r_mean;
         let set = &mut self.state.contacts;
         for c in set.contacts.iter_mut().filter(|_| converged) {
             if let Some(mode) = c.bond_failure() {
@@ -416,8 +423,7 @@ impl Simulation {
             }
         }
         let before = set.contacts.len();
-        set.contacts
-            .retain(|c| c.bonded || (c.overlap > 0.0 && c.response.normal_force > 0.0));
+        set.contacts.retain(|c| c.bonded || c.overlap >= -chatter);
         change.lost = before - set.contacts.len();
 
         // Friends lists: rebuilt around the current positions once anything moved half the skin.
@@ -448,7 +454,7 @@ impl Simulation {
                 continue;
             }
             let k = kinematics(pair, &self.state.grains, &self.state.walls, &self.q);
-            if k.overlap > 0.0 {
+            if k.overlap > chatter {
                 let params = self
                     .material
                     .params(pair, &self.state.grains, &self.state.walls);
