@@ -108,20 +108,18 @@ impl FriendSet {
     }
 
     /// Whether a grain or wall has moved half the skin since the lists were made, so that a
-    /// pair outside the lists could now touch.
-    pub fn is_stale(&self, grains: &GrainSet, walls: &WallSet) -> bool {
+    /// pair outside the lists could now touch (`position`: grain centres, `wall_position`:
+    /// each wall's move into the sample).
+    pub fn is_stale(&self, position: &[[f64; 2]], wall_position: &[f64]) -> bool {
         let half = 0.5 * self.skin;
-        let moved = |a: [f64; 2], b: [f64; 2]| (a[0] - b[0]).hypot(a[1] - b[1]);
-        grains
-            .position
+        position
             .iter()
             .zip(&self.reference)
-            .any(|(p, q)| moved(*p, *q) > half)
-            || walls
-                .walls
+            .any(|(p, q)| (p[0] - q[0]).hypot(p[1] - q[1]) > half)
+            || wall_position
                 .iter()
                 .zip(&self.wall_reference)
-                .any(|(w, q)| (w.position - q[0]).abs() > half)
+                .any(|(w, q)| (w - q[0]).abs() > half)
     }
 }
 

@@ -172,3 +172,34 @@ pub(crate) fn read_rows<T: H5Type + Copy + Default, const C: usize>(
         })
         .collect())
 }
+
+/// `file` if its root attribute `format` is `expected`; otherwise an input error naming
+/// `path` and saying what the file is (another grainstat file, or no grainstat file at all).
+pub(crate) fn require_format(
+    file: hdf5::File,
+    path: &Path,
+    expected: &str,
+    kind: &str,
+) -> Result<hdf5::File, Error> {
+    let format = file
+        .attr("format")
+        .and_then(|a| a.read_scalar::<VarLenUnicode>())
+        .map(|s| s.as_str().to_owned());
+    match format {
+        Ok(f) if f == expected => Ok(file),
+        Ok(f) => match f.strip_prefix("grainstat-") {
+            Some(other) => Err(input_error(
+                path,
+                format!("is a grainstat {other} file, not a {kind} file"),
+            )),
+            None => Err(input_error(
+                path,
+                format!("not a grainstat {kind} file (format `{f}`)"),
+            )),
+        },
+        Err(_) => Err(input_error(
+            path,
+            format!("not a grainstat {kind} file (no `format` attribute)"),
+        )),
+    }
+}

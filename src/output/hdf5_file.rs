@@ -17,7 +17,7 @@ use ndarray::{s, Array1, ArrayView1, ArrayView2};
 
 use super::h5::{
     dataset, get_attr, get_count, get_str_attr, input_error, put, put_strings, put_text,
-    read_error, read_rows, read_vec, set_attr, set_str_attr, write_error, Fail, R,
+    read_error, read_rows, read_vec, require_format, set_attr, set_str_attr, write_error, Fail, R,
 };
 use crate::contact::{BreakMode, BrokenBond, Contact, ContactParams, ContactSet, Response};
 use crate::error::Error;
@@ -517,21 +517,7 @@ fn open_existing(path: &Path, write: bool) -> Result<File, Error> {
         };
         input_error(path, format!("cannot be opened as an HDF5 file: {e}{hint}"))
     })?;
-    let format = file
-        .attr("format")
-        .and_then(|a| a.read_scalar::<VarLenUnicode>())
-        .map(|s| s.as_str().to_owned());
-    match format {
-        Ok(f) if f == FORMAT => Ok(file),
-        Ok(f) => Err(input_error(
-            path,
-            format!("not a grainstat result file (format `{f}`)"),
-        )),
-        Err(_) => Err(input_error(
-            path,
-            "not a grainstat result file (no `format` attribute)",
-        )),
-    }
+    require_format(file, path, FORMAT, "result")
 }
 
 fn group_name(increment: usize) -> String {

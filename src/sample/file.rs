@@ -21,7 +21,6 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use hdf5::types::VarLenUnicode;
 use hdf5::File;
 use ndarray::{ArrayView1, ArrayView2};
 
@@ -29,7 +28,8 @@ use super::{Region, SizeDistribution, SizeKind};
 use crate::error::Error;
 use crate::geometry::GrainSet;
 use crate::output::h5::{
-    get_attr, get_str_attr, input_error, put, read_rows, read_vec, set_attr, set_str_attr, Fail, R,
+    get_attr, get_str_attr, input_error, put, read_rows, read_vec, require_format, set_attr,
+    set_str_attr, Fail, R,
 };
 
 /// Value of the root attribute `format`: tells sample files from other HDF5 files.
@@ -340,25 +340,7 @@ fn open_existing(path: &Path) -> Result<File, Error> {
     }
     let file = File::open(path)
         .map_err(|e| input_error(path, format!("cannot be opened as an HDF5 file: {e}")))?;
-    let format = file
-        .attr("format")
-        .and_then(|a| a.read_scalar::<VarLenUnicode>())
-        .map(|s| s.as_str().to_owned());
-    match format {
-        Ok(f) if f == FORMAT => Ok(file),
-        Ok(f) if f == crate::output::hdf5_file::FORMAT => Err(input_error(
-            path,
-            "is a grainstat result file, not a sample file",
-        )),
-        Ok(f) => Err(input_error(
-            path,
-            format!("not a grainstat sample file (format `{f}`)"),
-        )),
-        Err(_) => Err(input_error(
-            path,
-            "not a grainstat sample file (no `format` attribute)",
-        )),
-    }
+    require_format(file, path, FORMAT, "sample")
 }
 
 // ---------------------------------------------------------------------------------------

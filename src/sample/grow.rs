@@ -112,7 +112,8 @@ pub fn grow(
         // Friends lists: rebuilt once something moved, or two of the largest grains grew
         // towards each other, by half the skin.
         let grown = (scale - radius_at_build) * 2.0 * r_max;
-        if grown > 0.5 * skin || friends.is_stale(&now, walls) {
+        let wall_position: Vec<f64> = walls.walls.iter().map(|w| w.position).collect();
+        if grown > 0.5 * skin || friends.is_stale(&now.position, &wall_position) {
             let old = std::mem::replace(&mut friends, FriendSet::build(&now, walls, skin));
             shear = friends
                 .pairs

@@ -427,18 +427,25 @@ impl Simulation {
         change.lost = before - set.contacts.len();
 
         // Friends lists: rebuilt around the current positions once anything moved half the skin.
-        let mut current = self.state.grains.clone();
-        current.position.clone_from(&self.q.position);
-        let mut walls_now = self.state.walls.clone();
-        for (w, wall) in walls_now.walls.iter_mut().enumerate() {
-            wall.position += match self.dofs.wall[w] {
-                Some(dof) => u[dof],
-                None => step.normal_move[w],
-            };
-            wall.slide += step.slide[w];
-        }
+        let wall_position: Vec<f64> = (0..self.state.walls.len())
+            .map(|w| {
+                self.state.walls.walls[w].position
+                    + match self.dofs.wall[w] {
+                        Some(dof) => u[dof],
+                        None => step.normal_move[w],
+                    }
+            })
+            .collect();
         self.stats.timers.topology += secs(start);
-        if self.friends.is_stale(&current, &walls_now) {
+        if self.friends.is_stale(&self.q.position, &wall_position) {
+            // Copies of grains and walls where they are now, made only for a rebuild.
+            let mut current = self.state.grains.clone();
+            current.position.clone_from(&self.q.position);
+            let mut walls_now = self.state.walls.clone();
+            for (w, wall) in walls_now.walls.iter_mut().enumerate() {
+                wall.position = wall_position[w];
+                wall.slide += step.slide[w];
+            }
             self.rebuild_friends(&current, &walls_now)?;
         }
         let start = Instant::now();
@@ -544,7 +551,16 @@ impl Simulation {
     /// After a failed attempt: the friends lists must still hold every restored contact.
     fn restore_friends(&mut self) -> Result<(), NumericError> {
         if self.index_pairs().is_err()
-            || self.friends.is_stale(&self.state.grains, &self.state.walls)
+            || self.friends.is_stale(
+                &self.state.grains.position,
+                &self
+                    .state
+                    .walls
+                    .walls
+                    .iter()
+                    .map(|w| w.position)
+                    .collect::<Vec<_>>(),
+            )
         {
             let (g, w) = (self.state.grains.clone(), self.state.walls.clone());
             self.rebuild_friends(&g, &w)?;
