@@ -2,7 +2,6 @@
 //! increments (and the last), report each increment, and on failure write the last converged
 //! state before returning the error.
 
-use crate::measure::measure;
 use crate::output::{ResultFile, RunHeader};
 use crate::simulation::Simulation;
 use crate::solver::stats::secs;
@@ -31,12 +30,7 @@ pub fn initial_report(sim: &Simulation) -> IncrementReport {
     IncrementReport {
         increment: sim.state.increment,
         stage: sim.state.stage,
-        measurements: measure(
-            &sim.state.grains,
-            &sim.state.walls,
-            &sim.state.contacts,
-            sim.depth,
-        ),
+        measurements: sim.measure(),
         ..Default::default()
     }
 }

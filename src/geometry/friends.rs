@@ -3,7 +3,7 @@
 //! skin from where it was when the list was made. Contacts are made and lost only within
 //! this list, and it also fixes the sparsity pattern of the global stiffness matrix.
 
-use super::{GrainSet, WallSet};
+use super::{CellGrid, GrainSet, WallSet};
 
 /// One side of a pair: a grain or a wall.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -44,44 +44,12 @@ impl FriendSet {
         let mut pairs = Vec::new();
         if n > 0 {
             let r_max = grains.radius.iter().cloned().fold(0.0, f64::max);
-            let cell = 2.0 * r_max + skin;
-            let b = grains.bounding_box();
-            let cols = (((b[2] - b[0]) / cell).floor() as usize + 1).min(1 << 16);
-            let rows = (((b[3] - b[1]) / cell).floor() as usize + 1).min(1 << 16);
-            let cell_of = |p: [f64; 2]| {
-                let c = (((p[0] - b[0]) / cell).floor().max(0.0) as usize).min(cols - 1);
-                let r = (((p[1] - b[1]) / cell).floor().max(0.0) as usize).min(rows - 1);
-                (c, r)
-            };
-            // Counting sort of grains into cells: `start[k]..start[k+1]` indexes `members`.
-            let mut start = vec![0usize; cols * rows + 1];
-            for p in &grains.position {
-                let (c, r) = cell_of(*p);
-                start[r * cols + c + 1] += 1;
-            }
-            for k in 0..cols * rows {
-                start[k + 1] += start[k];
-            }
-            let mut fill = start.clone();
-            let mut members = vec![0usize; n];
-            for (i, p) in grains.position.iter().enumerate() {
-                let (c, r) = cell_of(*p);
-                members[fill[r * cols + c]] = i;
-                fill[r * cols + c] += 1;
-            }
+            let grid = CellGrid::new(&grains.position, 2.0 * r_max + skin);
             for i in 0..n {
-                let (c, r) = cell_of(grains.position[i]);
-                let mut near = Vec::new();
-                for rr in r.saturating_sub(1)..=(r + 1).min(rows - 1) {
-                    for cc in c.saturating_sub(1)..=(c + 1).min(cols - 1) {
-                        let k = rr * cols + cc;
-                        for &j in &members[start[k]..start[k + 1]] {
-                            if j > i && gap(grains, i, j) < skin {
-                                near.push(j);
-                            }
-                        }
-                    }
-                }
+                let mut near: Vec<usize> = grid
+                    .near(grains.position[i])
+                    .filter(|&j| j > i && gap(grains, i, j) < skin)
+                    .collect();
                 near.sort_unstable();
                 pairs.extend(near.into_iter().map(|j| Pair {
                     a: Side::Grain(i),
@@ -111,15 +79,20 @@ impl FriendSet {
     /// pair outside the lists could now touch (`position`: grain centres, `wall_position`:
     /// each wall's move into the sample).
     pub fn is_stale(&self, position: &[[f64; 2]], wall_position: &[f64]) -> bool {
-        let half = 0.5 * self.skin;
-        position
+        self.drift(position, wall_position) > 0.5 * self.skin
+    }
+
+    /// The furthest any grain or wall has moved since the lists were made (m).
+    pub fn drift(&self, position: &[[f64; 2]], wall_position: &[f64]) -> f64 {
+        let grains = position
             .iter()
             .zip(&self.reference)
-            .any(|(p, q)| (p[0] - q[0]).hypot(p[1] - q[1]) > half)
-            || wall_position
-                .iter()
-                .zip(&self.wall_reference)
-                .any(|(w, q)| (w - q[0]).abs() > half)
+            .map(|(p, q)| (p[0] - q[0]).hypot(p[1] - q[1]));
+        let walls = wall_position
+            .iter()
+            .zip(&self.wall_reference)
+            .map(|(w, q)| (w - q[0]).abs());
+        grains.chain(walls).fold(0.0, f64::max)
     }
 }
 

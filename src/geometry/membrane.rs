@@ -1,11 +1,12 @@
 //! Membranes: flexible boundaries that carry a pressure onto the outermost grains and follow
 //! them as they move (the rubber membranes of the unconfined biaxial test, the outer boundary
 //! of the cylinder test). A membrane is the chain of outermost grains, found anew at the start
-//! of every increment; its pressure acts on the polyline through their centres, each segment
-//! `e` carrying `p D |e|` along its inward normal, half to each end. The load enters the
-//! global equations directly (no servo), with its tangent.
+//! of an increment and in every topology pass. Its pressure acts on the polyline through their
+//! centres, each segment `e` carrying `p D |e|` along its inward normal, half to each end.
+//! The load enters the global equations directly (no servo), with its tangent.
 
-use super::GrainSet;
+use super::CellGrid;
+use std::f64::consts::TAU;
 
 /// Which boundary a membrane covers.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -63,66 +64,63 @@ impl Chain {
     }
 }
 
+/// Radius of the probe that finds a membrane's grains, in mean grain radii: the membrane
+/// bridges any pocket between surface grains that the probe does not fit into.
+const PROBE_RADII: f64 = 2.0;
+
 impl Membrane {
-    /// The outermost grains, in bands one mean diameter wide along the side (or sectors of one
-    /// mean diameter around the ring): in each band the grain reaching furthest out.
-    pub fn chain(&self, grains: &GrainSet) -> Chain {
-        let band = 2.0 * grains.mean_radius();
+    /// The grains a membrane lies on: those a probe disc touches as it rolls around the outside
+    /// of the sample ("ball pivoting"), in order, sample on the left. A side starts from its
+    /// outermost grain and rolls both ways until the probe turns past the side's ends; a ring
+    /// rolls all the way round. The chain follows the grains as they are now, so it is found
+    /// anew whenever they move, pockets and bulges included.
+    pub fn chain(&self, position: &[[f64; 2]], radius: &[f64]) -> Chain {
+        if position.is_empty() {
+            return Chain::default();
+        }
+        let r_mean = radius.iter().sum::<f64>() / radius.len() as f64;
+        let r_max = radius.iter().cloned().fold(0.0, f64::max);
+        let probe = PROBE_RADII * r_mean;
+        let roll = Roll {
+            position,
+            radius,
+            probe,
+            grid: CellGrid::new(position, 2.0 * (r_max + probe)),
+        };
+        let dot = |u: [f64; 2], v: [f64; 2]| u[0] * v[0] + u[1] * v[1];
+        let outermost = |reach: &dyn Fn(usize) -> f64| {
+            (0..position.len())
+                .max_by(|&a, &b| reach(a).total_cmp(&reach(b)))
+                .expect("grains")
+        };
         match self.shape {
             MembraneShape::Side { outward } => {
                 // Along the side: the outward normal turned 90 degrees anticlockwise keeps the
                 // sample on the left.
                 let along = [-outward[1], outward[0]];
-                let proj = |p: [f64; 2], v: [f64; 2]| p[0] * v[0] + p[1] * v[1];
                 let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-                for (p, r) in grains.position.iter().zip(&grains.radius) {
-                    lo = lo.min(proj(*p, along) - r);
-                    hi = hi.max(proj(*p, along) + r);
+                for (p, r) in position.iter().zip(radius) {
+                    lo = lo.min(dot(*p, along) - r);
+                    hi = hi.max(dot(*p, along) + r);
                 }
-                let bands = (((hi - lo) / band).ceil() as usize).max(1);
-                let mut best: Vec<Option<(f64, usize)>> = vec![None; bands];
-                for (i, (p, r)) in grains.position.iter().zip(&grains.radius).enumerate() {
-                    let k = (((proj(*p, along) - lo) / band) as usize).min(bands - 1);
-                    let reach = proj(*p, outward) + r;
-                    if best[k].is_none_or(|(b, _)| reach > b) {
-                        best[k] = Some((reach, i));
-                    }
-                }
-                let mut chain: Vec<usize> = best.into_iter().flatten().map(|(_, i)| i).collect();
-                chain.dedup();
+                let start = outermost(&|i| dot(position[i], outward) + radius[i]);
+                let facing = outward[1].atan2(outward[0]);
+                let mut grains = roll.side(start, facing, -1.0);
+                grains.reverse();
+                grains.extend(roll.side(start, facing, 1.0).into_iter().skip(1));
                 Chain {
-                    grains: chain,
+                    grains,
                     closed: false,
                     along,
                     extent: [lo, hi],
                 }
             }
             MembraneShape::Ring { center } => {
-                let outer = grains
-                    .position
-                    .iter()
-                    .zip(&grains.radius)
-                    .map(|(p, r)| (p[0] - center[0]).hypot(p[1] - center[1]) + r)
-                    .fold(0.0, f64::max);
-                let sectors = ((2.0 * std::f64::consts::PI * outer / band).ceil() as usize).max(3);
-                let mut best: Vec<Option<(f64, usize)>> = vec![None; sectors];
-                for (i, (p, r)) in grains.position.iter().zip(&grains.radius).enumerate() {
-                    let d = [p[0] - center[0], p[1] - center[1]];
-                    let angle = d[1].atan2(d[0]) + std::f64::consts::PI;
-                    let k = ((angle / (2.0 * std::f64::consts::PI) * sectors as f64) as usize)
-                        .min(sectors - 1);
-                    let reach = d[0].hypot(d[1]) + r;
-                    if best[k].is_none_or(|(b, _)| reach > b) {
-                        best[k] = Some((reach, i));
-                    }
-                }
-                let mut chain: Vec<usize> = best.into_iter().flatten().map(|(_, i)| i).collect();
-                chain.dedup();
-                if chain.len() > 1 && chain.first() == chain.last() {
-                    chain.pop();
-                }
+                let offset = |i: usize| [position[i][0] - center[0], position[i][1] - center[1]];
+                let start = outermost(&|i| offset(i)[0].hypot(offset(i)[1]) + radius[i]);
+                let facing = offset(start)[1].atan2(offset(start)[0]);
                 Chain {
-                    grains: chain,
+                    grains: roll.ring(start, facing),
                     closed: true,
                     along: [0.0; 2],
                     extent: [0.0; 2],
@@ -132,9 +130,231 @@ impl Membrane {
     }
 }
 
+impl Chain {
+    /// The membrane's force on each grain of the chain, at `position`, for pressure times
+    /// depth `pressure_depth`: each segment's `p D` times the segment turned a quarter turn
+    /// (into the sample), half to each end; on a side, the end pieces from the side's ends to
+    /// the first and last grain push those grains inward.
+    pub fn loads(
+        &self,
+        shape: MembraneShape,
+        position: &[[f64; 2]],
+        pressure_depth: f64,
+    ) -> Vec<(usize, [f64; 2])> {
+        let mut loads: Vec<(usize, [f64; 2])> =
+            self.grains.iter().map(|&g| (g, [0.0; 2])).collect();
+        let count = loads.len();
+        for k in 0..count {
+            let next = (k + 1) % count;
+            if next == 0 && !(self.closed && count > 2) {
+                break;
+            }
+            let f = segment_force(
+                position[loads[k].0],
+                position[loads[next].0],
+                pressure_depth,
+            );
+            for at in [k, next] {
+                loads[at].1[0] += f[0];
+                loads[at].1[1] += f[1];
+            }
+        }
+        if let (MembraneShape::Side { outward }, Some(first), Some(last)) =
+            (shape, self.grains.first(), self.grains.last())
+        {
+            let proj =
+                |g: &usize| position[*g][0] * self.along[0] + position[*g][1] * self.along[1];
+            let ends = [
+                (0, proj(first) - self.extent[0]),
+                (count - 1, self.extent[1] - proj(last)),
+            ];
+            for (at, length) in ends {
+                loads[at].1[0] -= pressure_depth * length * outward[0];
+                loads[at].1[1] -= pressure_depth * length * outward[1];
+            }
+        }
+        loads
+    }
+}
+
+/// A probe disc of radius `probe` rolling around the outside of the grains.
+struct Roll<'a> {
+    position: &'a [[f64; 2]],
+    radius: &'a [f64],
+    probe: f64,
+    grid: CellGrid,
+}
+
+impl Roll<'_> {
+    /// The grains from `start` on a side, the probe rolling from the direction `facing`
+    /// (anticlockwise for `sense` 1, clockwise for -1) until it would turn more than a quarter
+    /// turn away from `facing`, round the side's end.
+    fn side(&self, start: usize, facing: f64, sense: f64) -> Vec<usize> {
+        let quarter = 0.5 * std::f64::consts::PI;
+        let (mut grains, mut pivot, mut angle) = (vec![start], start, facing);
+        while let Some((next, turn, landed)) = self.pivot(pivot, angle, sense) {
+            if sense * wrap(angle + sense * turn - facing) > quarter || grains.contains(&next) {
+                break;
+            }
+            grains.push(next);
+            (pivot, angle) = (next, landed);
+        }
+        grains
+    }
+
+    /// The closed chain around all grains, from `start` anticlockwise; when the probe comes
+    /// round to a link it has rolled over before, the chain closes there.
+    fn ring(&self, start: usize, facing: f64) -> Vec<usize> {
+        let (mut grains, mut pivot, mut angle) = (vec![start], start, facing);
+        let mut links = std::collections::HashSet::new();
+        while let Some((next, _, landed)) = self.pivot(pivot, angle, 1.0) {
+            if next == start {
+                break;
+            }
+            if !links.insert((pivot, next)) {
+                // A loop that does not pass through the start: keep the loop alone.
+                let first = grains.iter().position(|&g| g == next).expect("visited");
+                grains.drain(..first);
+                break;
+            }
+            grains.push(next);
+            (pivot, angle) = (next, landed);
+        }
+        grains
+    }
+
+    /// Roll the probe, resting on grain `i` in the direction `angle`, about `i` in the given
+    /// sense until it touches another grain: that grain, the turn (rad) and the probe's
+    /// direction seen from the new grain. `None` when nothing is within reach.
+    fn pivot(&self, i: usize, angle: f64, sense: f64) -> Option<(usize, f64, f64)> {
+        let (p, a) = (self.position[i], self.radius[i] + self.probe);
+        let mut best: Option<(f64, usize)> = None;
+        for j in self.grid.near(p) {
+            let q = self.position[j];
+            let b = self.radius[j] + self.probe;
+            let d = (q[0] - p[0]).hypot(q[1] - p[1]);
+            if j == i || d >= a + b || d <= (a - b).abs() {
+                continue;
+            }
+            // The probe touches `j` at angles alpha -+ beta about `i`; rolling in `sense` it
+            // meets the first of these.
+            let alpha = (q[1] - p[1]).atan2(q[0] - p[0]);
+            let beta = ((a * a + d * d - b * b) / (2.0 * a * d))
+                .clamp(-1.0, 1.0)
+                .acos();
+            let turn = (sense * (alpha - sense * beta - angle)).rem_euclid(TAU);
+            if best.is_none_or(|(t, k)| turn < t || (turn == t && j < k)) {
+                best = Some((turn, j));
+            }
+        }
+        let (turn, j) = best?;
+        let at = angle + sense * turn;
+        let centre = [p[0] + a * at.cos(), p[1] + a * at.sin()];
+        let q = self.position[j];
+        Some((j, turn, (centre[1] - q[1]).atan2(centre[0] - q[0])))
+    }
+}
+
+/// An angle brought into (-pi, pi].
+fn wrap(angle: f64) -> f64 {
+    let a = angle.rem_euclid(TAU);
+    if a > std::f64::consts::PI {
+        a - TAU
+    } else {
+        a
+    }
+}
+
 /// The force of one membrane segment from `a` to `b` on each of its ends, with the sample on
 /// the left: `p D / 2` times the segment turned 90 degrees anticlockwise.
 pub fn segment_force(a: [f64; 2], b: [f64; 2], pressure_depth: f64) -> [f64; 2] {
     let e = [b[0] - a[0], b[1] - a[1]];
     [-0.5 * pressure_depth * e[1], 0.5 * pressure_depth * e[0]]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Equal grains on a square lattice, `n` by `n`, touching.
+    fn square(n: usize) -> (Vec<[f64; 2]>, Vec<f64>) {
+        let mut position = Vec::new();
+        for i in 0..n {
+            for j in 0..n {
+                position.push([2.0 * j as f64, 2.0 * i as f64]);
+            }
+        }
+        let radius = vec![1.0; position.len()];
+        (position, radius)
+    }
+
+    fn membrane(shape: MembraneShape) -> Membrane {
+        Membrane {
+            name: "m".into(),
+            shape,
+            pressure: 1.0,
+        }
+    }
+
+    #[test]
+    fn a_side_lies_on_the_outer_column_in_order() {
+        let (position, radius) = square(5);
+        let left = membrane(MembraneShape::Side {
+            outward: [-1.0, 0.0],
+        });
+        let chain = left.chain(&position, &radius);
+        // Left column, walked downwards (sample on the left of the walk).
+        assert_eq!(chain.grains, vec![20, 15, 10, 5, 0]);
+        assert_eq!(chain.extent, [-9.0, 1.0]);
+        // Each grain pushed inward; the side carries p times its extent.
+        let loads = chain.loads(left.shape, &position, 1.0);
+        let total: f64 = loads.iter().map(|(_, f)| f[0]).sum();
+        assert!((total - 10.0).abs() < 1e-12, "{total}");
+        assert!(loads.iter().all(|(_, f)| f[0] > 0.0 && f[1].abs() < 1e-12));
+    }
+
+    #[test]
+    fn a_grain_standing_out_joins_the_side_and_a_narrow_pocket_is_bridged() {
+        let (mut position, radius) = square(5);
+        // Grain 10 (left column, middle) pushed out; grain 5 pulled in by half a radius.
+        position[10][0] -= 0.8;
+        position[5][0] += 0.5;
+        let left = membrane(MembraneShape::Side {
+            outward: [-1.0, 0.0],
+        });
+        let chain = left.chain(&position, &radius);
+        assert!(chain.grains.contains(&10));
+        // The probe (two radii) does not reach between 10 and 0 to touch 5.
+        assert!(!chain.grains.contains(&5), "{:?}", chain.grains);
+    }
+
+    #[test]
+    fn a_ring_goes_round_anticlockwise_and_pushes_inward() {
+        let (position, radius) = square(6);
+        let ring = membrane(MembraneShape::Ring { center: [5.0, 5.0] });
+        let chain = ring.chain(&position, &radius);
+        // The 20 grains of the outer square, once each.
+        assert_eq!(chain.grains.len(), 20);
+        let mut sorted = chain.grains.clone();
+        sorted.sort_unstable();
+        sorted.dedup();
+        assert_eq!(sorted.len(), 20);
+        let corners: Vec<[f64; 2]> = chain.grains.iter().map(|&g| position[g]).collect();
+        assert!(
+            crate::geometry::polygon_area(&corners) > 0.0,
+            "anticlockwise"
+        );
+        let loads = chain.loads(ring.shape, &position, 1.0);
+        let (mut fx, mut fy) = (0.0, 0.0);
+        for (g, f) in &loads {
+            let out = [position[*g][0] - 5.0, position[*g][1] - 5.0];
+            assert!(
+                f[0] * out[0] + f[1] * out[1] < 0.0,
+                "grain {g} pushed inward"
+            );
+            fx += f[0];
+            fy += f[1];
+        }
+        assert!(fx.abs() < 1e-12 && fy.abs() < 1e-12);
+    }
 }

@@ -2,9 +2,11 @@
 //! pairs may touch (thesis appendix 3).
 
 mod friends;
+mod grid;
 mod membrane;
 
 pub use friends::{gap as gap_between, FriendSet, Pair, Side};
+pub use grid::CellGrid;
 pub use membrane::{segment_force, Chain, Membrane, MembraneShape};
 
 /// The grains: centres, rotations and radii, one entry per grain (`GrainId` = index).
@@ -187,6 +189,20 @@ impl Wall {
         [-self.normal[1], self.normal[0]]
     }
 
+    /// Where this straight wall's line meets `other`'s; `None` when they are parallel.
+    pub fn corner(&self, other: &Wall) -> Option<[f64; 2]> {
+        let (a, b) = (self, other);
+        let det = a.normal[0] * b.normal[1] - a.normal[1] * b.normal[0];
+        if det.abs() < 1e-9 {
+            return None;
+        }
+        let (ca, cb) = (a.surface(a.position), b.surface(b.position));
+        Some([
+            (ca * b.normal[1] - cb * a.normal[1]) / det,
+            (a.normal[0] * cb - b.normal[0] * ca) / det,
+        ])
+    }
+
     /// Signed distance from the wall's surface to a point (positive on the sample side).
     pub fn distance(&self, x: [f64; 2]) -> f64 {
         let surface = self.surface(self.position);
@@ -305,12 +321,12 @@ impl WallSet {
         {
             return Some(circle_area(ring) - plugs);
         }
-        self.polygon_area().map(|a| a - plugs)
+        self.lines_area().map(|a| a - plugs)
     }
 
     /// Area of the convex polygon that the straight walls close (the intersection of their
     /// half-planes, taken in the order of their normals' angles).
-    fn polygon_area(&self) -> Option<f64> {
+    fn lines_area(&self) -> Option<f64> {
         let lines: Vec<&Wall> = self.walls.iter().filter(|w| w.circle.is_none()).collect();
         if lines.len() < 3 {
             return None;
@@ -320,23 +336,19 @@ impl WallSet {
         order.sort_by(|&a, &b| angle(lines[a]).total_cmp(&angle(lines[b])));
         let mut corners = Vec::with_capacity(order.len());
         for k in 0..order.len() {
-            let a = lines[order[k]];
-            let b = lines[order[(k + 1) % order.len()]];
-            let det = a.normal[0] * b.normal[1] - a.normal[1] * b.normal[0];
-            if det.abs() < 1e-9 {
-                return None;
-            }
-            let (ca, cb) = (a.offset + a.position, b.offset + b.position);
-            corners.push([
-                (ca * b.normal[1] - cb * a.normal[1]) / det,
-                (a.normal[0] * cb - b.normal[0] * ca) / det,
-            ]);
+            corners.push(lines[order[k]].corner(lines[order[(k + 1) % order.len()]])?);
         }
-        let mut area = 0.0;
-        for k in 0..corners.len() {
-            let (p, q) = (corners[k], corners[(k + 1) % corners.len()]);
-            area += p[0] * q[1] - q[0] * p[1];
-        }
-        (area > 0.0).then_some(0.5 * area)
+        let area = polygon_area(&corners);
+        (area > 0.0).then_some(area)
     }
+}
+
+/// Signed area of a polygon (positive when its corners run anticlockwise).
+pub fn polygon_area(corners: &[[f64; 2]]) -> f64 {
+    let mut twice = 0.0;
+    for k in 0..corners.len() {
+        let (p, q) = (corners[k], corners[(k + 1) % corners.len()]);
+        twice += p[0] * q[1] - q[0] * p[1];
+    }
+    0.5 * twice
 }

@@ -2,7 +2,7 @@
 //! from the contact forces (eq. A.41).
 
 use crate::contact::{kinematics, Configuration, ContactSet};
-use crate::geometry::{GrainSet, Side, WallSet};
+use crate::geometry::{polygon_area, Chain, GrainSet, Membrane, MembraneShape, Side, WallSet};
 
 /// Measurements of one state.
 #[derive(Debug, Clone, PartialEq, Default)]
@@ -11,12 +11,15 @@ pub struct Measurements {
     pub wall_normal_force: Vec<f64>,
     /// Shear force of the grains on each wall, along its tangent (N).
     pub wall_shear_force: Vec<f64>,
-    /// Normal stress on each wall: force / (length * depth) (Pa); NaN when it has no length.
+    /// Normal stress on each wall: force / (loaded length * depth) (Pa); between membranes the
+    /// loaded length is the grains' extent along the wall.
     pub wall_stress: Vec<f64>,
     /// Macro stress `sigma_ij = (1/V) sum_c d_i F_j` (eq. A.41), compression positive (Pa),
-    /// over every contact, wall contacts included (their branch runs to the wall line).
+    /// over every contact, wall contacts included (their branch runs to the wall line), and
+    /// over the membranes' loads on their grains (the branch from the grain's surface).
     pub macro_stress: [[f64; 2]; 2],
-    /// Volume `V` enclosed by the walls times the depth (m^3); NaN when the walls do not close.
+    /// Volume `V` enclosed by the walls and membranes times the depth (m^3); NaN when they do
+    /// not close.
     pub volume: f64,
     /// Grain-grain contacts.
     pub grain_contacts: usize,
@@ -30,11 +33,21 @@ pub struct Measurements {
     pub broken_bonds: usize,
 }
 
+/// The membranes of a state, each with its chain of grains.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct MembraneBoundary<'a> {
+    /// The membranes, with their pressures.
+    pub membranes: &'a [Membrane],
+    /// Their chains, one per membrane.
+    pub chains: &'a [Chain],
+}
+
 /// Measure a converged state.
 pub fn measure(
     grains: &GrainSet,
     walls: &WallSet,
     contacts: &ContactSet,
+    boundary: MembraneBoundary,
     depth: f64,
 ) -> Measurements {
     let q = Configuration::at_rest(grains, walls);
@@ -73,18 +86,119 @@ pub fn measure(
         }
         m.bonds += c.bonded as usize;
     }
+    // A membrane acts on its grains' surfaces: branch r f / |f| from there to the centre.
+    for (membrane, chain) in boundary.membranes.iter().zip(boundary.chains) {
+        for (g, f) in chain.loads(membrane.shape, &grains.position, membrane.pressure * depth) {
+            let size = f[0].hypot(f[1]);
+            if size == 0.0 {
+                continue;
+            }
+            let branch = f.map(|v| grains.radius[g] * v / size);
+            for (i, row) in sum.iter_mut().enumerate() {
+                for (j, s) in row.iter_mut().enumerate() {
+                    *s += branch[i] * f[j];
+                }
+            }
+        }
+    }
     m.broken_bonds = contacts.broken_bonds.len();
-    m.volume = walls.enclosed_area().map_or(f64::NAN, |a| a * depth);
+    m.volume = enclosed_area(grains, walls, boundary).map_or(f64::NAN, |a| a * depth);
     m.macro_stress = sum.map(|row| row.map(|s| s / m.volume));
     m.wall_stress = (0..walls.len())
-        .map(|w| {
-            walls
-                .length(w)
-                .map_or(f64::NAN, |l| m.wall_normal_force[w] / (l * depth))
-        })
+        .map(|w| m.wall_normal_force[w] / (walls.loaded_length(w, grains) * depth))
         .collect();
     m.contacts_per_grain = 2.0 * m.grain_contacts as f64 / grains.len().max(1) as f64;
     m
+}
+
+/// Area the walls and membranes enclose. A membrane's edge runs over its grains' outer
+/// surfaces (each centre moved out by its radius, square to the chain); a side membrane
+/// reaches the sample's ends, and consecutive straight walls meet at their corner. The
+/// pieces are taken in the order of their outward directions, as around a convex sample.
+/// A free borehole counts in the area; plugs do not.
+fn enclosed_area(grains: &GrainSet, walls: &WallSet, boundary: MembraneBoundary) -> Option<f64> {
+    if boundary.membranes.is_empty() {
+        return walls.enclosed_area();
+    }
+    let plugs: f64 = walls
+        .walls
+        .iter()
+        .filter_map(|w| w.circle.filter(|c| !c.grains_inside).map(|_| w))
+        .map(|w| std::f64::consts::PI * w.surface(w.position).powi(2))
+        .sum();
+    // Outer edge points of a chain, in its order.
+    let edge = |chain: &Chain| -> Vec<[f64; 2]> {
+        let g = &chain.grains;
+        let p = |k: usize| grains.position[g[k]];
+        (0..g.len())
+            .map(|k| {
+                // Outward: the chain's direction at the grain turned a quarter turn clockwise.
+                let (before, after) = match (k, chain.closed) {
+                    (0, true) => (p(g.len() - 1), p((k + 1) % g.len())),
+                    (0, false) => (p(0), p((1).min(g.len() - 1))),
+                    (_, _) if k + 1 == g.len() && !chain.closed => (p(k - 1), p(k)),
+                    _ => (p(k - 1), p((k + 1) % g.len())),
+                };
+                let d = [after[0] - before[0], after[1] - before[1]];
+                let size = d[0].hypot(d[1]);
+                let r = grains.radius[g[k]];
+                let at = p(k);
+                if size == 0.0 {
+                    return at;
+                }
+                [at[0] + r * d[1] / size, at[1] - r * d[0] / size]
+            })
+            .collect()
+    };
+    let ring = boundary
+        .membranes
+        .iter()
+        .zip(boundary.chains)
+        .find(|(m, _)| matches!(m.shape, MembraneShape::Ring { .. }));
+    if let Some((_, chain)) = ring {
+        return Some(polygon_area(&edge(chain)).abs() - plugs);
+    }
+    // Sides and straight walls, by the angle of their outward direction.
+    enum Piece<'a> {
+        Wall(&'a crate::geometry::Wall),
+        Side([f64; 2], &'a Chain),
+    }
+    let mut pieces: Vec<(f64, Piece)> = walls
+        .walls
+        .iter()
+        .filter(|w| w.circle.is_none())
+        .map(|w| ((-w.normal[1]).atan2(-w.normal[0]), Piece::Wall(w)))
+        .collect();
+    for (m, chain) in boundary.membranes.iter().zip(boundary.chains) {
+        if let MembraneShape::Side { outward } = m.shape {
+            pieces.push((outward[1].atan2(outward[0]), Piece::Side(outward, chain)));
+        }
+    }
+    pieces.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut corners = Vec::new();
+    for k in 0..pieces.len() {
+        match (&pieces[k].1, &pieces[(k + 1) % pieces.len()].1) {
+            (Piece::Wall(a), Piece::Wall(b)) => corners.push(a.corner(b)?),
+            (Piece::Side(outward, chain), _) => {
+                let points = edge(chain);
+                let (first, last) = (points.first()?, points.last()?);
+                let out = |p: &[f64; 2]| p[0] * outward[0] + p[1] * outward[1];
+                let at = |along: f64, p: &[f64; 2]| {
+                    let o = out(p);
+                    [
+                        along * chain.along[0] + o * outward[0],
+                        along * chain.along[1] + o * outward[1],
+                    ]
+                };
+                corners.push(at(chain.extent[0], first));
+                corners.extend_from_slice(&points);
+                corners.push(at(chain.extent[1], last));
+            }
+            (Piece::Wall(_), Piece::Side(..)) => {}
+        }
+    }
+    let area = polygon_area(&corners);
+    (corners.len() >= 3 && area > 0.0).then_some(area - plugs)
 }
 
 /// Radial and tangential stress (eq. A.41) in rings about `center`: for each ring between

@@ -4,7 +4,7 @@
 use crate::assembly::{contact_block, DofMap, Pattern};
 use crate::contact::{kinematics, Configuration, Contact, ContactLaw, Kinematics, SlipTangent};
 use crate::geometry::{
-    extent_along, segment_force, Chain, GrainSet, Membrane, MembraneShape, Side, WallSet,
+    extent_along, Chain, FriendSet, GrainSet, Membrane, MembraneShape, Pair, Side, WallSet,
 };
 use crate::solver::stats::{secs, StageTimers};
 use crate::solver::Equations;
@@ -54,8 +54,11 @@ pub struct IncrementEquations<'a> {
     pub walls: &'a WallSet,
     /// Contacts: history read, trial response written.
     pub contacts: &'a mut [Contact],
-    /// Friend-pair index of each contact (its block in the pattern).
+    /// Friend-pair index of each contact (its block in the pattern), increasing.
     pub pair_index: &'a [usize],
+    /// The friends lists: pairs not in contact are watched for gaps closing within a step, and
+    /// no step takes a grain so far that a pair outside them could touch.
+    pub friends: &'a FriendSet,
     /// The wall program of this step.
     pub step: &'a LoadStep,
     /// Membranes (their pressures come from the step).
@@ -185,13 +188,12 @@ impl IncrementEquations<'_> {
                 }
             };
             let scaled = |s: f64, k: [[f64; 2]; 2]| k.map(|row| row.map(|v| s * v));
+            for (g, f) in chain.loads(membrane.shape, &self.q.position, pd) {
+                let d = self.dofs.grain(g);
+                residual[d] += f[0];
+                residual[d + 1] += f[1];
+            }
             for (a, b) in chain.links() {
-                let f = segment_force(self.q.position[a], self.q.position[b], pd);
-                for g in [a, b] {
-                    let d = self.dofs.grain(g);
-                    residual[d] += f[0];
-                    residual[d + 1] += f[1];
-                }
                 // The symmetric part of a segment's block keeps only K_ab = -c R, K_ba = c R.
                 let c = scaled(0.5 * pd, quarter);
                 let minus = scaled(-1.0, c);
@@ -208,17 +210,7 @@ impl IncrementEquations<'_> {
                 (membrane.shape, chain.grains.first(), chain.grains.last())
             {
                 let along = chain.along;
-                let proj = |g: usize| {
-                    let p = self.q.position[g];
-                    p[0] * along[0] + p[1] * along[1]
-                };
-                for (g, length, sign) in [
-                    (first, proj(first) - chain.extent[0], 1.0),
-                    (last, chain.extent[1] - proj(last), -1.0),
-                ] {
-                    let d = self.dofs.grain(g);
-                    residual[d] -= pd * length * outward[0];
-                    residual[d + 1] -= pd * length * outward[1];
+                for (g, sign) in [(first, 1.0), (last, -1.0)] {
                     // d(length)/dx = sign * along; K = -dR/dx = sign pD outward along^T.
                     let mut k = [[0.0; 2]; 2];
                     for i in 0..2 {
@@ -252,7 +244,64 @@ impl IncrementEquations<'_> {
     }
 }
 
+/// Overlap, in mean radii, at which a step that closes a gap stops: above the chatter band
+/// of the topology update, so the contact is made.
+const CLOSING_OVERLAP: f64 = 1e-6;
+
+/// Share of the half skin a grain may move from where the friends lists were made before a
+/// step stops for them to be made anew.
+const REACH: f64 = 0.9;
+
 impl Equations for IncrementEquations<'_> {
+    fn closing_fraction(&mut self, u: &[f64], du: &[f64]) -> f64 {
+        // Gaps at the start and at the end of the step; within it a gap between two grains
+        // lies below the straight line between the two (distance is convex), so stopping
+        // where that line reaches the overlap leaves at least that overlap.
+        let stop = -CLOSING_OVERLAP * self.r_mean;
+        self.configure(u);
+        // No further than most of the way to where the lists go stale, by the triangle
+        // inequality on each grain's move.
+        let reach = REACH * 0.5 * self.friends.skin;
+        let mut fraction = 1.0f64;
+        let per = self.dofs.per_grain;
+        for (i, p) in self.q.position.iter().enumerate() {
+            let q = self.friends.reference[i];
+            let moved = (p[0] - q[0]).hypot(p[1] - q[1]);
+            let step = du[i * per].hypot(du[i * per + 1]);
+            if moved + step > reach {
+                fraction = fraction.min(((reach - moved) / step).max(0.0));
+            }
+        }
+        let mut contact = self.pair_index.iter().peekable();
+        let apart: Vec<(Pair, f64)> = self
+            .friends
+            .pairs
+            .iter()
+            .enumerate()
+            .filter(|&(k, _)| contact.next_if(|&&c| c == k).is_none())
+            .map(|(_, &pair)| {
+                (
+                    pair,
+                    kinematics(pair, self.grains, self.walls, self.q).overlap,
+                )
+            })
+            .filter(|&(_, overlap)| overlap < -stop)
+            .map(|(pair, overlap)| (pair, -overlap))
+            .collect();
+        if apart.is_empty() {
+            return fraction;
+        }
+        let end: Vec<f64> = u.iter().zip(du).map(|(a, b)| a + b).collect();
+        self.configure(&end);
+        for (pair, gap0) in apart {
+            let gap1 = -kinematics(pair, self.grains, self.walls, self.q).overlap;
+            if gap1 < stop {
+                fraction = fraction.min((gap0 - stop) / (gap0 - gap1));
+            }
+        }
+        fraction
+    }
+
     fn evaluate(
         &mut self,
         u: &[f64],

@@ -12,7 +12,7 @@ use crate::contact::{
     kinematics, BrokenBond, Configuration, Contact, ContactLaw, ContactSet, Kinematics,
 };
 use crate::geometry::{Chain, FriendSet, GrainSet, WallControl, WallSet};
-use crate::measure::measure;
+use crate::measure::{measure, Measurements, MembraneBoundary};
 use crate::solver::newton::{self, NewtonSettings, SystemMatrix};
 use crate::solver::stats::{secs, StageTimers};
 use crate::solver::{Equations, LinearKind, LinearSolver, SolverConfig, SolverStats};
@@ -58,17 +58,26 @@ pub struct Simulation {
 /// Overlap, in mean radii, within which a contact keeps its state (made or lost).
 const CHATTER: f64 = 1e-12;
 
+/// Share of the half skin past which the friends lists are made anew: below the share a
+/// Newton step may reach (0.9), so a step that stopped there finds new lists.
+const REACH_REBUILD: f64 = 0.8;
+
+/// Topology passes that stop where a gap closed, allowed per pass that ends on a solve.
+const CLOSINGS_PER_PASS: usize = 10;
+
 /// What one topology pass changed.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 struct TopologyChange {
     made: usize,
     lost: usize,
     broken: usize,
+    /// Membranes whose chain of grains changed.
+    chains: usize,
 }
 
 impl TopologyChange {
     fn any(&self) -> bool {
-        self.made + self.lost + self.broken > 0
+        self.made + self.lost + self.broken + self.chains > 0
     }
 }
 
@@ -108,7 +117,7 @@ impl Simulation {
         let chains: Vec<Chain> = state
             .membranes
             .iter()
-            .map(|m| m.chain(&state.grains))
+            .map(|m| m.chain(&state.grains.position, &state.grains.radius))
             .collect();
         let links: Vec<(usize, usize)> = chains.iter().flat_map(Chain::links).collect();
         let pattern = Arc::new(Pattern::build(&friends, &dofs, &state.walls, &links));
@@ -172,10 +181,8 @@ impl Simulation {
             stage: self.state.stage,
             ..Default::default()
         };
-        // Apply the increment: the wall moves and stresses of the next step of the stage, and
-        // the membranes on the grains that are outermost now.
+        // Apply the increment: the wall moves and stresses of the next step of the stage.
         let step = self.next_load_step();
-        self.refresh_chains()?;
         // Solve: Newton + return map + topology, with cut-back.
         self.advance(&step, 0, &mut report)?;
         // Advance the load program.
@@ -187,12 +194,7 @@ impl Simulation {
         }
         self.stats.counters.increments += 1;
         // Measure.
-        report.measurements = measure(
-            &self.state.grains,
-            &self.state.walls,
-            &self.state.contacts,
-            self.depth,
-        );
+        report.measurements = self.measure();
         Ok(report)
     }
 
@@ -282,21 +284,41 @@ impl Simulation {
     ) -> Result<(Vec<f64>, TopologyChange), NumericError> {
         let mut u = vec![0.0; self.dofs.len];
         let mut total = TopologyChange::default();
-        for _pass in 0..self.config.max_topology_passes {
+        // The membranes start on the grains that are outermost in the committed state.
+        let committed = self.state.grains.position.clone();
+        self.refresh_chains(&committed)?;
+        // Passes that end on a Newton solve count against the chatter cap; those that stop
+        // where a gap closed are bounded by the pairs that can close.
+        let (mut passes, mut closings) = (0, 0);
+        while passes < self.config.max_topology_passes
+            && closings < CLOSINGS_PER_PASS * self.config.max_topology_passes
+        {
             let outcome = self.newton(step, &mut u)?;
             report.newton_iterations += outcome.iterations;
             report.residual = outcome.residual;
-            self.last_residuals = outcome.history;
+            if outcome.iterations > 0 {
+                self.last_residuals.clone_from(&outcome.history);
+            }
             report.topology_passes += 1;
             self.stats.counters.topology_passes += 1;
-            // Contacts made and lost: after convergence, and also when Newton stalls, since a
-            // loaded grain that has lost its support cannot be in equilibrium until it meets
-            // its next neighbour.
+            if outcome.closed_gap {
+                closings += 1;
+            } else {
+                passes += 1;
+            }
+            // Contacts made and lost: after convergence, and also when Newton stalls or stops
+            // where a gap closed, since a loaded grain that has lost its support cannot be in
+            // equilibrium until it meets its next neighbour.
             let change = self.update_topology(step, &u, outcome.converged)?;
             total.made += change.made;
             total.lost += change.lost;
             total.broken += change.broken;
-            match (outcome.converged, change.any()) {
+            // A pass that ran out of iterations while |R| still fell goes on as another.
+            let progressing = outcome
+                .history
+                .first()
+                .is_some_and(|&r0| outcome.residual < 0.1 * r0);
+            match (outcome.converged, change.any() || progressing) {
                 (true, false) => return Ok((u, total)),
                 (false, false) => {
                     return Err(NumericError::NotConverged {
@@ -324,6 +346,7 @@ impl Simulation {
             walls: &self.state.walls,
             contacts: &mut self.state.contacts.contacts,
             pair_index: &self.pair_index,
+            friends: &self.friends,
             step,
             membranes: &self.state.membranes,
             chains: &self.chains,
@@ -423,7 +446,8 @@ impl Simulation {
             }
         }
         let before = set.contacts.len();
-        set.contacts.retain(|c| c.bonded || c.overlap >= -chatter);
+        set.contacts
+            .retain(|c| !converged || c.bonded || c.overlap >= -chatter);
         change.lost = before - set.contacts.len();
 
         // Friends lists: rebuilt around the current positions once anything moved half the skin.
@@ -437,7 +461,9 @@ impl Simulation {
             })
             .collect();
         self.stats.timers.topology += secs(start);
-        if self.friends.is_stale(&self.q.position, &wall_position) {
+        // After a step that stopped short of the lists' reach, or anything further.
+        let reach = 0.5 * self.friends.skin * REACH_REBUILD;
+        if self.friends.drift(&self.q.position, &wall_position) > reach {
             // Copies of grains and walls where they are now, made only for a rebuild.
             let mut current = self.state.grains.clone();
             current.position.clone_from(&self.q.position);
@@ -477,6 +503,9 @@ impl Simulation {
         merged.sort_by_key(|c| c.pair);
         self.state.contacts.contacts = merged;
         self.index_pairs()?;
+        // Membranes: on the grains that are outermost now.
+        let current = self.q.position.clone();
+        change.chains = self.refresh_chains(&current)?;
         self.stats.counters.contacts_made += change.made;
         self.stats.counters.contacts_lost += change.lost;
         self.stats.counters.bonds_broken += change.broken;
@@ -517,27 +546,33 @@ impl Simulation {
         self.analyse_pattern()
     }
 
-    /// Each membrane's chain from the committed positions; a chain linking grains the pattern
-    /// does not link yet needs a new pattern.
-    fn refresh_chains(&mut self) -> Result<(), NumericError> {
+    /// Each membrane's chain on the grains at `position`; a chain linking grains the pattern
+    /// does not link yet needs a new pattern. Returns how many chains changed.
+    fn refresh_chains(&mut self, position: &[[f64; 2]]) -> Result<usize, NumericError> {
         if self.state.membranes.is_empty() {
-            return Ok(());
+            return Ok(0);
         }
-        self.chains = self
+        let chains: Vec<Chain> = self
             .state
             .membranes
             .iter()
-            .map(|m| m.chain(&self.state.grains))
+            .map(|m| m.chain(position, &self.state.grains.radius))
             .collect();
+        let changed = chains
+            .iter()
+            .zip(&self.chains)
+            .filter(|(new, old)| new.grains != old.grains)
+            .count();
+        self.chains = chains;
         let links: Vec<(usize, usize)> = self.chains.iter().flat_map(Chain::links).collect();
         let missing = links
             .iter()
             .any(|&(a, b)| !self.pattern.links(&self.dofs, a, b));
+        self.links = links;
         if missing {
-            self.links = links;
             self.install_pattern()?;
         }
-        Ok(())
+        Ok(changed)
     }
 
     /// Symbolic factorisation of the pattern, and each contact's block in it.
@@ -608,6 +643,20 @@ impl Simulation {
         }
         self.state.contacts.commit();
         self.q = Configuration::at_rest(&self.state.grains, &self.state.walls);
+    }
+
+    /// Measurements of the committed state.
+    pub fn measure(&self) -> Measurements {
+        measure(
+            &self.state.grains,
+            &self.state.walls,
+            &self.state.contacts,
+            MembraneBoundary {
+                membranes: &self.state.membranes,
+                chains: &self.chains,
+            },
+            self.depth,
+        )
     }
 
     /// Largest force or moment imbalance of any grain, relative to the mean contact force, in

@@ -40,6 +40,10 @@ pub trait Equations {
     /// Whether the iterate is still far from the answer: the equations may then offer a
     /// stiffer tangent where theirs vanishes (only the path changes, not the answer).
     fn set_far(&mut self, far: bool);
+
+    /// The fraction of the step `du` from `u` after which the first pair of surfaces that is
+    /// apart now has just closed (1 when none closes within the step).
+    fn closing_fraction(&mut self, u: &[f64], du: &[f64]) -> f64;
 }
 
 /// Settings of one Newton solve.
@@ -83,6 +87,9 @@ pub struct NewtonOutcome {
     /// Converged with the residual at its round-off floor: no step reduced it, and the Newton
     /// step was already below the displacement tolerance.
     pub at_roundoff: bool,
+    /// Stopped where a step first closed a gap between two surfaces: the contact must be made
+    /// before Newton goes on, or the grains would pass through each other.
+    pub closed_gap: bool,
 }
 
 /// The matrix of the Newton systems: a fixed pattern, its values, and its diagonal slots.
@@ -97,6 +104,17 @@ pub struct SystemMatrix<'a> {
 
 /// Relative residual above which the iterate counts as far from the answer.
 const FAR: f64 = 1e-2;
+
+/// Regularisation while creeping. A grain on a mechanism (rolling round its one support under
+/// a membrane's push, sliding freely) has no equilibrium until it meets its next neighbour,
+/// and no step along that path lowers |R|: the line search stalls. Creeping takes the
+/// regularised step whatever |R| does, like a pseudo-time step: the stiff part of
+/// the system is solved, the free part moves a bounded way (at most the largest step), until
+/// a gap closes or |R| falls.
+const CREEP_LAMBDA: f64 = 1e-3;
+
+/// Slow steps in a row after which Newton creeps.
+const STALL_ITERATIONS: usize = 3;
 
 /// Solve `R(u) = 0` starting from `u`; `u` holds the last iterate on return.
 pub fn solve(
@@ -133,6 +151,10 @@ pub fn solve(
     };
     let mut lambda = 0.0f64;
     let mut trust = settings.initial_trust.min(settings.max_step);
+    // Creeping (see `CREEP_LAMBDA`) starts after `STALL_ITERATIONS` steps in a row that each
+    // took off less than a tenth of |R| though no growing trust radius held them back, and
+    // ends once |R| has halved.
+    let (mut creep_from, mut slow) = (None::<f64>, 0usize);
     let mut last_step = 0.0;
     // A factorisation kept from an earlier solve is trusted only as a chord.
     let mut fresh_factor = false;
@@ -148,6 +170,14 @@ pub fn solve(
         eq.set_far(rel > FAR);
 
         let mut accepted = false;
+        let merit_before = merit;
+        // Whether the accepted step was held back by a trust radius still growing: slow
+        // then, but not stalled.
+        let mut growing = false;
+        if creep_from.is_some() {
+            chord = false;
+            lambda = lambda.max(CREEP_LAMBDA);
+        }
         for _attempt in 0..12 {
             // Direction: K du = R, with the chord factorisation or a fresh, regularised one.
             if chord {
@@ -178,10 +208,28 @@ pub fn solve(
             // 2.4, 'truncate'). The radius starts at the scale of contact overlaps, grows
             // while full steps succeed and shrinks to what the line search accepted.
             let length = eq.step_norm(&du);
-            let truncated = length > trust;
+            let limit = if creep_from.is_some() {
+                settings.max_step
+            } else {
+                trust
+            };
+            let truncated = length > limit;
             if truncated {
-                let shrink = trust / length;
+                let shrink = limit / length;
                 du.iter_mut().for_each(|d| *d *= shrink);
+            }
+            // A step that closes a gap stops where it closes: that much of the step is taken
+            // whatever the residual does, and the contact is made before Newton goes on.
+            let fraction = eq.closing_fraction(u, &du);
+            if fraction < 1.0 {
+                for k in 0..n {
+                    u[k] += fraction * du[k];
+                }
+                eq.evaluate(u, &mut residual, Some(values))?;
+                (rel, worst, _) = eq.residual_norm(&residual);
+                last_step = fraction * eq.step_norm(&du);
+                out.closed_gap = true;
+                break;
             }
             // Line search on |R|_2: halve the step while it does not decrease enough.
             let mut alpha = 1.0;
@@ -195,7 +243,7 @@ pub fn solve(
                     && (t_merit <= (1.0 - 1e-4 * alpha) * merit || t_rel <= settings.tolerance);
                 // A chord step must also contract well, or the tangent is refreshed.
                 let contracts = !chord || t_merit <= 0.25 * merit || t_rel <= settings.tolerance;
-                if good && contracts {
+                if (good && contracts) || (creep_from.is_some() && t_merit.is_finite()) {
                     u.copy_from_slice(&trial_u);
                     std::mem::swap(&mut residual, &mut trial_residual);
                     std::mem::swap(values, &mut trial_values);
@@ -210,6 +258,7 @@ pub fn solve(
                 alpha *= 0.5;
             }
             if accepted {
+                growing = truncated && limit < settings.max_step;
                 if alpha == 1.0 {
                     lambda *= 0.1;
                     if lambda < settings.lambda_min {
@@ -241,13 +290,41 @@ pub fn solve(
             out.converged = true;
             break;
         }
+        if out.closed_gap {
+            out.history.push(rel);
+            break;
+        }
         if !accepted {
             break;
+        }
+        match creep_from {
+            Some(start) if merit <= 0.5 * start => {
+                creep_from = None;
+                lambda = 0.0;
+                trust = settings.max_step;
+                fresh_factor = false;
+            }
+            Some(_) => {}
+            None => {
+                slow = if merit > 0.9 * merit_before && !growing {
+                    slow + 1
+                } else {
+                    0
+                };
+                if slow >= STALL_ITERATIONS {
+                    creep_from = Some(merit);
+                    slow = 0;
+                }
+            }
         }
         chord = settings.reuse_factorisation && fresh_factor;
         out.history.push(rel);
     }
-    if !out.converged && rel <= settings.tolerance && last_step <= settings.displacement_tolerance {
+    if !out.converged
+        && !out.closed_gap
+        && rel <= settings.tolerance
+        && last_step <= settings.displacement_tolerance
+    {
         out.converged = true;
     }
     out.residual = rel;
