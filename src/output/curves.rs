@@ -53,11 +53,11 @@ pub struct Curves {
     pub increment: Vec<i64>,
     /// What `load` is.
     pub axis: LoadAxis,
-    /// The load axis: strain [-], stress [Pa] or increment.
+    /// The load axis: strain (-), stress (Pa) or increment.
     pub load: Curve,
-    /// Stresses [Pa]: on the walls and from the contact forces.
+    /// Stresses (Pa): on the walls and from the contact forces.
     pub stresses: Vec<Curve>,
-    /// Volumetric strain [-] (compaction positive), when the sample's area is known.
+    /// Volumetric strain (-, compaction positive), when the sample's area is known.
     pub volumetric_strain: Option<Curve>,
     /// Grain-grain contacts per grain.
     pub contacts_per_grain: Vec<f64>,
