@@ -359,3 +359,117 @@ pub fn write_csv(
     }
     std::fs::write(path, text).map_err(|e| Error::io(path.display(), e))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::{Circle, WallControl};
+    use crate::output::WallHeader;
+
+    fn header(walls: Vec<WallHeader>) -> RunHeader {
+        RunHeader {
+            scene_name: "test".into(),
+            scene_text: String::new(),
+            solver_text: String::new(),
+            version: String::new(),
+            depth: 1.0,
+            radius: vec![1.0],
+            walls,
+            fixed_rotations: false,
+            law: "linear".into(),
+            membranes: Vec::new(),
+        }
+    }
+
+    fn line(name: &str, normal: [f64; 2], offset: f64, control: WallControl) -> WallHeader {
+        WallHeader {
+            name: name.into(),
+            normal,
+            offset,
+            control,
+            friction: 0.0,
+            length: None,
+            circle: None,
+        }
+    }
+
+    /// A history of two rows: wall positions and applied stresses per row.
+    fn history(position: [Vec<f64>; 2], applied: [Vec<f64>; 2]) -> History {
+        let walls = position[0].len();
+        History {
+            ints: vec![("increment", vec![0, 1]), ("broken_bonds", vec![0, 0])],
+            floats: [
+                "macro_stress_xx",
+                "macro_stress_yy",
+                "macro_stress_xy",
+                "macro_stress_yx",
+            ]
+            .into_iter()
+            .map(|n| (n, vec![0.0; 2]))
+            .chain([
+                ("volume", vec![f64::NAN; 2]),
+                ("contacts_per_grain", vec![4.0; 2]),
+            ])
+            .collect(),
+            walls: vec![
+                ("wall_position", position.to_vec()),
+                ("wall_applied_stress", applied.to_vec()),
+                ("wall_stress", vec![vec![1.0; walls]; 2]),
+            ],
+        }
+    }
+
+    #[test]
+    fn the_axial_pair_is_the_one_that_deformed_most() {
+        // A 2 x 4 box: x from 0 to 2, y from 0 to 4.
+        let d = WallControl::Displacement;
+        let h = header(vec![
+            line("bottom", [0.0, 1.0], 0.0, d),
+            line("right", [-1.0, 0.0], -2.0, d),
+            line("top", [0.0, -1.0], -4.0, d),
+            line("left", [1.0, 0.0], 0.0, d),
+        ]);
+        // The right wall moves in by 0.1 (5%), the top by 0.1 (2.5%).
+        let curves = Curves::new(
+            &h,
+            &history(
+                [vec![0.0; 4], vec![0.0, 0.1, 0.1, 0.0]],
+                [vec![0.0; 4], vec![0.0; 4]],
+            ),
+        );
+        assert_eq!(
+            curves.axis,
+            LoadAxis::Strain {
+                axial: [1, 3],
+                lateral: Some([0, 2])
+            }
+        );
+        assert!((curves.load.values[1] - 0.05).abs() < 1e-12);
+        let volumetric = curves.volumetric_strain.unwrap().values;
+        assert!((volumetric[1] - (1.0 - 1.9 * 3.9 / 8.0)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn circular_walls_are_plotted_against_a_changing_pressure_else_the_increment() {
+        let circle = |name: &str, radius: f64, inside: bool| WallHeader {
+            circle: Some(Circle {
+                center: [0.0, 0.0],
+                radius,
+                grains_inside: inside,
+            }),
+            ..line(name, [0.0, 0.0], 0.0, WallControl::Stress)
+        };
+        let h = header(vec![circle("outer", 3.0, true), circle("hole", 1.0, false)]);
+        let position = [vec![0.0; 2], vec![0.0; 2]];
+        let curves = Curves::new(
+            &h,
+            &history(position.clone(), [vec![1.0, 1.0], vec![1.0, 3.0]]),
+        );
+        assert_eq!(curves.axis, LoadAxis::Pressure { wall: 1 });
+        assert_eq!(curves.load.values, vec![1.0, 3.0]);
+        let curves = Curves::new(&h, &history(position, [vec![1.0; 2], vec![1.0; 2]]));
+        assert_eq!(curves.axis, LoadAxis::Increment);
+        assert_eq!(curves.load.values, vec![0.0, 1.0]);
+        assert!(curves.volumetric_strain.is_none());
+    }
+}

@@ -357,13 +357,18 @@ impl SamplePicture<'_> {
         chart.draw_series(bars)?;
 
         let force = si_unit(largest, "N");
+        let scale = if largest > 0.0 {
+            format!(
+                ", largest {} {}",
+                significant(largest * force.factor, 3),
+                force.unit
+            )
+        } else {
+            String::new()
+        };
         let mut entries = vec![
             (
-                format!(
-                    "compression (width ∝ |F_n|, largest {} {})",
-                    significant(largest * force.factor, 3),
-                    force.unit
-                ),
+                format!("compression (width ∝ |F_n|{scale})"),
                 COMPRESSION,
                 4,
             ),

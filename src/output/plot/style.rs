@@ -274,8 +274,8 @@ pub(super) fn max_abs<'a>(values: impl IntoIterator<Item = &'a f64>) -> f64 {
         .fold(0.0, |m, v| m.max(v.abs()))
 }
 
-/// A range around finite `values` with 5% room, from zero when `from_zero`; a band
-/// around a constant.
+/// A range around finite `values` (and zero when `from_zero`) with 5% room, so that no curve
+/// lies on an axis; a band around a constant.
 pub(super) fn range<'a>(values: impl IntoIterator<Item = &'a f64>, from_zero: bool) -> (f64, f64) {
     let (mut lo, mut hi) = values
         .into_iter()
@@ -295,16 +295,5 @@ pub(super) fn range<'a>(values: impl IntoIterator<Item = &'a f64>, from_zero: bo
         return (lo - band, hi + band);
     }
     let room = 0.05 * (hi - lo);
-    (
-        if from_zero && lo == 0.0 {
-            0.0
-        } else {
-            lo - room
-        },
-        if from_zero && hi == 0.0 {
-            0.0
-        } else {
-            hi + room
-        },
-    )
+    (lo - room, hi + room)
 }
