@@ -1,5 +1,6 @@
 # The two commands of the README. Both install Debian's HDF5 library (and h5py, which a
-# test uses to read our files from Python) when pkg-config cannot find it.
+# test uses to read our files from Python) when pkg-config cannot find it, and the DejaVu
+# font the pictures are drawn with when it is missing.
 
 .PHONY: run test deps
 
@@ -19,4 +20,9 @@ deps:
 		echo "installing libhdf5-dev, pkg-config and python3-h5py with apt-get"; \
 		apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq \
 			libhdf5-dev pkg-config python3-h5py >/dev/null; \
+	fi
+	@if [ ! -f /usr/share/fonts/truetype/dejavu/DejaVuSans.ttf ]; then \
+		echo "installing fonts-dejavu-core with apt-get"; \
+		apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq \
+			fonts-dejavu-core >/dev/null; \
 	fi

@@ -1,6 +1,8 @@
-//! The `grainstat` command line: run a scene, summarise a result file.
+//! The `grainstat` command line: run a scene, prepare a sample, draw and summarise a result
+//! file.
 
 use clap::{Parser, Subcommand};
+use grainstat::output::plot::{default_dir, plot};
 use grainstat::output::{info, ResultFile};
 use grainstat::run::{header, initial_report, run_to_end};
 use grainstat::sample::prepare::{prepare, PrepareSpec};
@@ -51,6 +53,9 @@ enum Command {
         /// No progress bar and no per-increment log lines.
         #[arg(long)]
         quiet: bool,
+        /// Do not draw the pictures and write the XDMF at the end.
+        #[arg(long)]
+        no_plot: bool,
     },
     /// Prepare a sample as the scene's `[sample]` section says: radii from the size
     /// distribution, grains sprinkled into the region and grown to the target isotropic
@@ -76,6 +81,24 @@ enum Command {
         #[arg(long)]
         quiet: bool,
     },
+    /// Draw a result file's pictures (SVG and PNG): stress-strain, volumetric strain,
+    /// contacts per grain and bonds broken over the increments; forces, displacements and
+    /// rotations of the grains and radar plots of the contacts at one increment. Also the
+    /// curves as CSV, and the XDMF for ParaView beside the result file.
+    #[command(
+        after_help = "Examples:\n  grainstat plot results/crystal-biaxial.h5\n  \
+        grainstat plot results/crystal-biaxial.h5 -o figures --increment 25"
+    )]
+    Plot {
+        /// Result file (HDF5).
+        file: PathBuf,
+        /// Directory for the pictures and the CSV; default: NAME-plots beside NAME.h5.
+        #[arg(short, long, value_name = "DIR")]
+        output: Option<PathBuf>,
+        /// The increment to draw the grains at; default: the last complete one.
+        #[arg(long, value_name = "N")]
+        increment: Option<usize>,
+    },
     /// Summarise a result file: scene, increments written, last stresses, timers, counters.
     #[command(after_help = "Example:\n  grainstat info results/crystal-biaxial.h5")]
     Info {
@@ -94,7 +117,16 @@ fn main() -> ExitCode {
             resume,
             threads,
             quiet,
-        } => run(&scene, solver.as_deref(), output, resume, threads, quiet),
+            no_plot,
+        } => run(
+            &scene,
+            solver.as_deref(),
+            output,
+            resume,
+            threads,
+            quiet,
+            !no_plot,
+        ),
         Command::Generate {
             scene,
             output,
@@ -102,6 +134,15 @@ fn main() -> ExitCode {
             solver,
             quiet,
         } => generate(&scene, &output, csv.as_deref(), solver.as_deref(), quiet),
+        Command::Plot {
+            file,
+            output,
+            increment,
+        } => plot(&file, output.as_deref(), increment).map(|files| {
+            for f in files {
+                println!("{}", f.display());
+            }
+        }),
         Command::Info { file } => info(&file).map(|text| print!("{text}")),
     };
     match result {
@@ -207,6 +248,7 @@ fn run(
     resume: Option<PathBuf>,
     threads: usize,
     quiet: bool,
+    pictures: bool,
 ) -> Result<(), Error> {
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads.max(1))
@@ -290,11 +332,35 @@ fn run(
         }
     });
     bar.finish_and_clear();
+    let path = file.path().to_path_buf();
     if !quiet {
         eprintln!("{}", summary(&sim));
-        eprintln!("results: {}", file.path().display());
+        eprintln!("results: {}", path.display());
     }
-    result
+    // Close the file before reading it back; a failed run still has its last state there.
+    let closed = file.close();
+    if !pictures {
+        return result.and(closed);
+    }
+    let plotted = closed.and_then(|()| plot(&path, None, None));
+    match (result, plotted) {
+        (Ok(()), Ok(files)) => {
+            if !quiet {
+                eprintln!("pictures: {}", default_dir(&path).display());
+                if let Some(xmf) = files.last() {
+                    eprintln!("ParaView: {}", xmf.display());
+                }
+            }
+            Ok(())
+        }
+        (Ok(()), Err(err)) => Err(err),
+        (Err(err), plotted) => {
+            if let Err(e) = plotted {
+                eprintln!("error: drawing the pictures: {e}");
+            }
+            Err(err)
+        }
+    }
 }
 
 /// One line per increment: solver effort, contacts, and the wall and macro stresses.

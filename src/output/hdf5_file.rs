@@ -353,6 +353,109 @@ pub fn read_summary(path: impl AsRef<Path>) -> Result<Option<SolverStats>, Error
     read_summary_group(&file).map_err(read_error(path))
 }
 
+/// The `/history` table as stored, one row per complete written increment.
+#[derive(Debug, Clone, PartialEq)]
+pub struct History {
+    /// Integer columns (dataset name, values), `increment` among them.
+    pub ints: Vec<(&'static str, Vec<i64>)>,
+    /// Float columns (dataset name, values).
+    pub floats: Vec<(&'static str, Vec<f64>)>,
+    /// Per-wall columns (dataset name, one row of `W` values per increment).
+    pub walls: Vec<(&'static str, Vec<Vec<f64>>)>,
+}
+
+impl History {
+    /// Rows (complete written increments).
+    pub fn len(&self) -> usize {
+        self.int("increment").len()
+    }
+
+    /// Whether no increment is complete.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// An integer column by dataset name (empty when there is none).
+    pub fn int(&self, name: &str) -> &[i64] {
+        self.ints
+            .iter()
+            .find(|(n, _)| *n == name)
+            .map_or(&[], |(_, v)| v)
+    }
+
+    /// A float column by dataset name (empty when there is none).
+    pub fn float(&self, name: &str) -> &[f64] {
+        self.floats
+            .iter()
+            .find(|(n, _)| *n == name)
+            .map_or(&[], |(_, v)| v)
+    }
+
+    /// A per-wall column by dataset name (empty when there is none).
+    pub fn wall(&self, name: &str) -> &[Vec<f64>] {
+        self.walls
+            .iter()
+            .find(|(n, _)| *n == name)
+            .map_or(&[], |(_, v)| v)
+    }
+}
+
+/// The `/history` table, keeping only rows whose increment group is complete: a run killed
+/// while writing may have left a row (or part of one) for an increment that is not whole.
+pub fn read_history(path: impl AsRef<Path>) -> Result<History, Error> {
+    let path = path.as_ref();
+    let file = open_existing(path, false)?;
+    let read = || -> R<History> {
+        let walls = get_count(&file, "walls")?;
+        let complete: Vec<i64> = increment_groups(&file.group("increments")?)?
+            .into_iter()
+            .filter(|g| g.2)
+            .map(|g| g.0 as i64)
+            .collect();
+        let h = file.group("history")?;
+        let rows = leading_rows(&h, |_| true)?;
+        let increment = &read_vec::<i64>(&h, "increment", None)?[..rows];
+        let keep: Vec<usize> = (0..rows)
+            .filter(|&r| complete.binary_search(&increment[r]).is_ok())
+            .collect();
+        let pick = |v: Vec<f64>| keep.iter().map(|&r| v[r]).collect::<Vec<_>>();
+        let ints = HISTORY_INT
+            .iter()
+            .map(|&name| {
+                let v = read_vec::<i64>(&h, name, None)?;
+                Ok((name, keep.iter().map(|&r| v[r]).collect()))
+            })
+            .collect::<R<Vec<_>>>()?;
+        let floats = HISTORY_FLOAT
+            .iter()
+            .map(|&name| Ok((name, pick(read_vec::<f64>(&h, name, None)?))))
+            .collect::<R<Vec<_>>>()?;
+        let wall_columns = HISTORY_WALL
+            .iter()
+            .map(|&name| {
+                let ds = dataset(&h, name)?;
+                let raw = ds
+                    .read_raw::<f64>()
+                    .map_err(|e| Fail(format!("dataset `/history/{name}`: {e}")))?;
+                if raw.len() < rows * walls {
+                    return Err(Fail(format!("dataset `/history/{name}` is short")));
+                }
+                let rows = keep
+                    .iter()
+                    .map(|&r| raw[r * walls..(r + 1) * walls].to_vec())
+                    .collect();
+                Ok((name, rows))
+            })
+            .collect::<R<Vec<_>>>()?;
+        Ok(History {
+            ints,
+            floats,
+            walls: wall_columns,
+        })
+    };
+    read().map_err(read_error(path))
+}
+
 /// A human summary of a result file, for `grainstat info`.
 pub fn info(path: impl AsRef<Path>) -> Result<String, Error> {
     let path = path.as_ref();
@@ -496,7 +599,7 @@ pub fn info(path: impl AsRef<Path>) -> Result<String, Error> {
 
 /// Open a file the user named: a missing file, a directory, or one HDF5 cannot read is an
 /// input error, and so is an HDF5 file that is not ours.
-fn open_existing(path: &Path, write: bool) -> Result<File, Error> {
+pub(crate) fn open_existing(path: &Path, write: bool) -> Result<File, Error> {
     if !path.exists() {
         return Err(input_error(path, "no such file"));
     }
@@ -520,7 +623,7 @@ fn open_existing(path: &Path, write: bool) -> Result<File, Error> {
     require_format(file, path, FORMAT, "result")
 }
 
-fn group_name(increment: usize) -> String {
+pub(crate) fn group_name(increment: usize) -> String {
     format!("{increment:0width$}", width = GROUP_DIGITS)
 }
 
@@ -531,7 +634,7 @@ fn is_complete(g: &Group) -> bool {
 }
 
 /// The increment groups by number: (increment, name, complete). Other names are ignored.
-fn increment_groups(inc: &Group) -> R<Vec<(usize, String, bool)>> {
+pub(crate) fn increment_groups(inc: &Group) -> R<Vec<(usize, String, bool)>> {
     let mut groups = Vec::new();
     for name in inc.member_names()? {
         if name.is_empty() || !name.bytes().all(|b| b.is_ascii_digit()) {
@@ -639,6 +742,9 @@ fn write_header(file: &File, h: &RunHeader) -> R<()> {
 
     let grains = file.create_group("grains")?;
     put(&grains, "radius", ArrayView1::from(&h.radius[..]))?;
+    // Point numbers for XDMF, whose point cells need a connectivity array.
+    let index: Array1<i64> = (0..h.radius.len() as i64).collect();
+    put(&grains, "index", index.view())?;
 
     let walls = file.create_group("walls")?;
     let names: Vec<String> = h.walls.iter().map(|w| w.name.clone()).collect();
@@ -828,6 +934,13 @@ fn write_group_state(g: &Group, state: &State, report: &IncrementReport) -> R<()
         .map(|c| [side_code(c.pair.a), c.pair.b as i64])
         .collect();
     put(&contacts, "pair", ArrayView2::from(&pair[..]))?;
+    // The contact as a line between grain centres for XDMF; a wall contact's wall end is
+    // its grain (a line of zero length).
+    let nodes: Vec<[i64; 2]> = pair
+        .iter()
+        .map(|&[a, b]| [if a < 0 { b } else { a }, b])
+        .collect();
+    put(&contacts, "nodes", ArrayView2::from(&nodes[..]))?;
     let column = |f: fn(&Contact) -> f64| -> Array1<f64> { cs.iter().map(f).collect() };
     put(
         &contacts,

@@ -1,0 +1,475 @@
+//! The curves of a run, from `/history`: stresses, volumetric strain, contacts per grain and
+//! bonds broken against a load axis chosen from the walls, and their CSV table.
+//!
+//! The axis is what a laboratory would plot against: the strain of the gap between two
+//! opposite straight walls (the pair that deformed most, "axial"), else the applied stress
+//! of a stress-controlled wall that changes (a cylinder test's pressure), else the increment.
+//! Compression is positive throughout, as in the result file.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use super::hdf5_file::{History, RunHeader};
+use crate::geometry::Wall;
+use crate::Error;
+
+/// What the curves are plotted against.
+#[derive(Debug, Clone, PartialEq)]
+pub enum LoadAxis {
+    /// Strain of the gap between the `axial` pair of opposite walls; `lateral` is the pair
+    /// perpendicular to it, when there is one.
+    Strain {
+        /// The pair of opposite walls whose gap deformed most.
+        axial: [usize; 2],
+        /// The pair perpendicular to it.
+        lateral: Option<[usize; 2]>,
+    },
+    /// The applied stress of a stress-controlled wall (a pressure).
+    Pressure {
+        /// The wall.
+        wall: usize,
+    },
+    /// The increment number.
+    Increment,
+}
+
+/// One curve: values per written increment.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Curve {
+    /// Column name in the CSV (no spaces).
+    pub key: String,
+    /// Label in a legend.
+    pub label: String,
+    /// Measured from the contact forces (eq. A.41) rather than on the walls: drawn dashed.
+    pub from_contacts: bool,
+    /// One value per row (may be NaN where undefined).
+    pub values: Vec<f64>,
+}
+
+/// The curves of a run, one value per complete written increment.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Curves {
+    /// The increments.
+    pub increment: Vec<i64>,
+    /// What `load` is.
+    pub axis: LoadAxis,
+    /// The load axis: strain (-), stress (Pa) or increment.
+    pub load: Curve,
+    /// Stresses (Pa): on the walls and from the contact forces.
+    pub stresses: Vec<Curve>,
+    /// Volumetric strain (-, compaction positive), when the sample's area is known.
+    pub volumetric_strain: Option<Curve>,
+    /// Grain-grain contacts per grain.
+    pub contacts_per_grain: Vec<f64>,
+    /// Bonds broken so far.
+    pub broken_bonds: Vec<f64>,
+}
+
+impl Curves {
+    /// The curves of a history, with the walls of its header.
+    pub fn new(header: &RunHeader, history: &History) -> Curves {
+        let rows = history.len();
+        let position = history.wall("wall_position");
+        let applied = history.wall("wall_applied_stress");
+        let measured = history.wall("wall_stress");
+        let walls: Vec<Wall> = header.walls.iter().map(|h| h.wall(0.0, 0.0, 0.0)).collect();
+        // Gap between a pair of opposite walls at a row, and its strain since the start.
+        let gap = |[i, j]: [usize; 2], row: Option<usize>| {
+            let p = |w: usize| row.map_or(0.0, |r| position[r][w]);
+            -(walls[i].surface(p(i)) + walls[j].surface(p(j)))
+        };
+        let strain = |pair: [usize; 2]| -> Vec<f64> {
+            (0..rows)
+                .map(|r| 1.0 - gap(pair, Some(r)) / gap(pair, None))
+                .collect()
+        };
+        let mut pairs = Vec::new();
+        for i in 0..walls.len() {
+            for j in i + 1..walls.len() {
+                if walls[i].faces(&walls[j]) {
+                    pairs.push([i, j]);
+                }
+            }
+        }
+        // The pair that deformed most; the vertical one when none did.
+        let axial = pairs.iter().copied().max_by(|&a, &b| {
+            let key = |p: [usize; 2]| {
+                let last = strain(p).last().copied().unwrap_or(0.0).abs();
+                (last, walls[p[0]].normal[1].abs())
+            };
+            key(a)
+                .partial_cmp(&key(b))
+                .unwrap_or(std::cmp::Ordering::Equal)
+        });
+        let macro_along = |n: [f64; 2]| -> Vec<f64> {
+            let (xx, yy) = (
+                history.float("macro_stress_xx"),
+                history.float("macro_stress_yy"),
+            );
+            let (xy, yx) = (
+                history.float("macro_stress_xy"),
+                history.float("macro_stress_yx"),
+            );
+            (0..rows)
+                .map(|r| n[0] * n[0] * xx[r] + n[0] * n[1] * (xy[r] + yx[r]) + n[1] * n[1] * yy[r])
+                .collect()
+        };
+        let on_walls = |pair: [usize; 2]| -> Vec<f64> {
+            (0..rows)
+                .map(|r| {
+                    let v: Vec<f64> = pair
+                        .iter()
+                        .map(|&w| measured[r][w])
+                        .filter(|s| s.is_finite())
+                        .collect();
+                    v.iter().sum::<f64>() / v.len() as f64
+                })
+                .collect()
+        };
+        let curve = |key: &str, label: String, from_contacts: bool, values: Vec<f64>| Curve {
+            key: key.to_owned(),
+            label,
+            from_contacts,
+            values,
+        };
+        let names = |[i, j]: [usize; 2]| format!("{}-{}", walls[i].name, walls[j].name);
+
+        let (axis, load, stresses, volumetric) = if let Some(axial) = axial {
+            let lateral = pairs
+                .iter()
+                .copied()
+                .find(|p| walls[p[0]].perpendicular_to(&walls[axial[0]]));
+            let load = curve(
+                "axial_strain",
+                format!("axial strain ε_a ({})", names(axial)),
+                false,
+                strain(axial),
+            );
+            let mut stresses = vec![
+                curve(
+                    "axial_stress_walls",
+                    format!("σ_a on the walls ({})", names(axial)),
+                    false,
+                    on_walls(axial),
+                ),
+                curve(
+                    "axial_stress_contacts",
+                    "σ_a from the contacts".into(),
+                    true,
+                    macro_along(walls[axial[0]].normal),
+                ),
+            ];
+            let mut volumetric = None;
+            if let Some(lateral) = lateral {
+                let (sa, sl) = (on_walls(axial), on_walls(lateral));
+                let (ma, ml) = (
+                    macro_along(walls[axial[0]].normal),
+                    macro_along(walls[lateral[0]].normal),
+                );
+                stresses.extend([
+                    curve(
+                        "lateral_stress_walls",
+                        format!("σ_l on the walls ({})", names(lateral)),
+                        false,
+                        sl.clone(),
+                    ),
+                    curve(
+                        "lateral_stress_contacts",
+                        "σ_l from the contacts".into(),
+                        true,
+                        ml.clone(),
+                    ),
+                    curve(
+                        "deviator_stress_walls",
+                        "σ_a - σ_l on the walls".into(),
+                        false,
+                        sa.iter().zip(&sl).map(|(a, l)| a - l).collect(),
+                    ),
+                    curve(
+                        "deviator_stress_contacts",
+                        "σ_a - σ_l from the contacts".into(),
+                        true,
+                        ma.iter().zip(&ml).map(|(a, l)| a - l).collect(),
+                    ),
+                ]);
+                // The area of the rectangle between the two pairs.
+                let values = (0..rows)
+                    .map(|r| {
+                        1.0 - gap(axial, Some(r)) * gap(lateral, Some(r))
+                            / (gap(axial, None) * gap(lateral, None))
+                    })
+                    .collect();
+                volumetric = Some(curve(
+                    "volumetric_strain",
+                    "volumetric strain ε_v".into(),
+                    false,
+                    values,
+                ));
+            }
+            let axis = LoadAxis::Strain { axial, lateral };
+            (axis, load, stresses, volumetric)
+        } else {
+            let pressure = (0..walls.len()).find(|&w| {
+                let v: Vec<f64> = (0..rows).map(|r| applied[r][w]).collect();
+                header.walls[w].control == crate::geometry::WallControl::Stress
+                    && v.iter().any(|s| *s != v[0])
+            });
+            let (axis, load) = match pressure {
+                Some(w) => (
+                    LoadAxis::Pressure { wall: w },
+                    curve(
+                        "applied_stress",
+                        format!("applied stress on {}", walls[w].name),
+                        false,
+                        (0..rows).map(|r| applied[r][w]).collect(),
+                    ),
+                ),
+                None => (
+                    LoadAxis::Increment,
+                    curve(
+                        "load_step",
+                        "load step (increment)".into(),
+                        false,
+                        history.int("increment").iter().map(|&k| k as f64).collect(),
+                    ),
+                ),
+            };
+            let mut stresses: Vec<Curve> = (0..walls.len())
+                .map(|w| {
+                    curve(
+                        &format!("wall_stress:{}", csv_name(&walls[w].name)),
+                        format!("σ on {}", walls[w].name),
+                        false,
+                        (0..rows).map(|r| measured[r][w]).collect(),
+                    )
+                })
+                .collect();
+            stresses.extend([
+                curve(
+                    "macro_stress_xx",
+                    "σ_xx from the contacts".into(),
+                    true,
+                    history.float("macro_stress_xx").to_vec(),
+                ),
+                curve(
+                    "macro_stress_yy",
+                    "σ_yy from the contacts".into(),
+                    true,
+                    history.float("macro_stress_yy").to_vec(),
+                ),
+            ]);
+            let volume = history.float("volume");
+            let volumetric = (volume.iter().all(|v| v.is_finite()) && rows > 0).then(|| {
+                curve(
+                    "volumetric_strain",
+                    "volumetric strain ε_v".into(),
+                    false,
+                    volume.iter().map(|v| 1.0 - v / volume[0]).collect(),
+                )
+            });
+            (axis, load, stresses, volumetric)
+        };
+        Curves {
+            increment: history.int("increment").to_vec(),
+            axis,
+            load,
+            stresses,
+            volumetric_strain: volumetric,
+            contacts_per_grain: history.float("contacts_per_grain").to_vec(),
+            broken_bonds: history
+                .int("broken_bonds")
+                .iter()
+                .map(|&k| k as f64)
+                .collect(),
+        }
+    }
+}
+
+/// Units of a `/history` dataset, for the CSV header.
+fn history_unit(name: &str) -> &'static str {
+    match name {
+        "volume" => "m^3",
+        "wall_position" | "wall_slide" => "m",
+        "wall_normal_force" | "wall_shear_force" => "N",
+        n if n.starts_with("macro_stress") || n.ends_with("stress") => "Pa",
+        _ => "-",
+    }
+}
+
+/// A wall name as part of a CSV column name: no commas, quotes or spaces.
+fn csv_name(name: &str) -> String {
+    name.chars()
+        .map(|c| if matches!(c, ',' | '"' | ' ') { '_' } else { c })
+        .collect()
+}
+
+/// Write the curves as CSV: one row per complete written increment, a header naming each
+/// column with its unit (`name [unit]`). The columns are every `/history` dataset as
+/// stored (per-wall ones as `name:wall`), then the strains and stresses derived from them:
+/// axial strain and the stresses along the wall pairs (when the axis is a strain) and the
+/// volumetric strain.
+pub fn write_csv(
+    path: &Path,
+    header: &RunHeader,
+    history: &History,
+    curves: &Curves,
+) -> Result<(), Error> {
+    let mut head: Vec<String> = vec!["increment [-]".into()];
+    let mut columns: Vec<Vec<String>> = vec![history
+        .int("increment")
+        .iter()
+        .map(|k| k.to_string())
+        .collect()];
+    for (name, values) in history.ints.iter().filter(|(n, _)| *n != "increment") {
+        head.push(format!("{name} [-]"));
+        columns.push(values.iter().map(|v| v.to_string()).collect());
+    }
+    let float = |v: &f64| format!("{v:e}");
+    for (name, values) in &history.floats {
+        head.push(format!("{name} [{}]", history_unit(name)));
+        columns.push(values.iter().map(float).collect());
+    }
+    for (name, rows) in &history.walls {
+        for (w, wall) in header.walls.iter().enumerate() {
+            head.push(format!(
+                "{name}:{} [{}]",
+                csv_name(&wall.name),
+                history_unit(name)
+            ));
+            columns.push(rows.iter().map(|r| float(&r[w])).collect());
+        }
+    }
+    // Derived columns; the others' curves are copies of `/history` columns.
+    let mut derived: Vec<(&Curve, &str)> = Vec::new();
+    if let LoadAxis::Strain { .. } = curves.axis {
+        derived.push((&curves.load, "-"));
+        derived.extend(curves.stresses.iter().map(|c| (c, "Pa")));
+    }
+    derived.extend(curves.volumetric_strain.iter().map(|c| (c, "-")));
+    for (curve, unit) in derived {
+        head.push(format!("{} [{unit}]", curve.key));
+        columns.push(curve.values.iter().map(float).collect());
+    }
+
+    let mut text = head.join(",");
+    text.push('\n');
+    for row in 0..history.len() {
+        let cells: Vec<&str> = columns.iter().map(|c| c[row].as_str()).collect();
+        let _ = writeln!(text, "{}", cells.join(","));
+    }
+    std::fs::write(path, text).map_err(|e| Error::io(path.display(), e))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::{Circle, WallControl};
+    use crate::output::WallHeader;
+
+    fn header(walls: Vec<WallHeader>) -> RunHeader {
+        RunHeader {
+            scene_name: "test".into(),
+            scene_text: String::new(),
+            solver_text: String::new(),
+            version: String::new(),
+            depth: 1.0,
+            radius: vec![1.0],
+            walls,
+            fixed_rotations: false,
+            law: "linear".into(),
+            membranes: Vec::new(),
+        }
+    }
+
+    fn line(name: &str, normal: [f64; 2], offset: f64, control: WallControl) -> WallHeader {
+        WallHeader {
+            name: name.into(),
+            normal,
+            offset,
+            control,
+            friction: 0.0,
+            length: None,
+            circle: None,
+        }
+    }
+
+    /// A history of two rows: wall positions and applied stresses per row.
+    fn history(position: [Vec<f64>; 2], applied: [Vec<f64>; 2]) -> History {
+        let walls = position[0].len();
+        History {
+            ints: vec![("increment", vec![0, 1]), ("broken_bonds", vec![0, 0])],
+            floats: [
+                "macro_stress_xx",
+                "macro_stress_yy",
+                "macro_stress_xy",
+                "macro_stress_yx",
+            ]
+            .into_iter()
+            .map(|n| (n, vec![0.0; 2]))
+            .chain([
+                ("volume", vec![f64::NAN; 2]),
+                ("contacts_per_grain", vec![4.0; 2]),
+            ])
+            .collect(),
+            walls: vec![
+                ("wall_position", position.to_vec()),
+                ("wall_applied_stress", applied.to_vec()),
+                ("wall_stress", vec![vec![1.0; walls]; 2]),
+            ],
+        }
+    }
+
+    #[test]
+    fn the_axial_pair_is_the_one_that_deformed_most() {
+        // A 2 x 4 box: x from 0 to 2, y from 0 to 4.
+        let d = WallControl::Displacement;
+        let h = header(vec![
+            line("bottom", [0.0, 1.0], 0.0, d),
+            line("right", [-1.0, 0.0], -2.0, d),
+            line("top", [0.0, -1.0], -4.0, d),
+            line("left", [1.0, 0.0], 0.0, d),
+        ]);
+        // The right wall moves in by 0.1 (5%), the top by 0.1 (2.5%).
+        let curves = Curves::new(
+            &h,
+            &history(
+                [vec![0.0; 4], vec![0.0, 0.1, 0.1, 0.0]],
+                [vec![0.0; 4], vec![0.0; 4]],
+            ),
+        );
+        assert_eq!(
+            curves.axis,
+            LoadAxis::Strain {
+                axial: [1, 3],
+                lateral: Some([0, 2])
+            }
+        );
+        assert!((curves.load.values[1] - 0.05).abs() < 1e-12);
+        let volumetric = curves.volumetric_strain.unwrap().values;
+        assert!((volumetric[1] - (1.0 - 1.9 * 3.9 / 8.0)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn circular_walls_are_plotted_against_a_changing_pressure_else_the_increment() {
+        let circle = |name: &str, radius: f64, inside: bool| WallHeader {
+            circle: Some(Circle {
+                center: [0.0, 0.0],
+                radius,
+                grains_inside: inside,
+            }),
+            ..line(name, [0.0, 0.0], 0.0, WallControl::Stress)
+        };
+        let h = header(vec![circle("outer", 3.0, true), circle("hole", 1.0, false)]);
+        let position = [vec![0.0; 2], vec![0.0; 2]];
+        let curves = Curves::new(
+            &h,
+            &history(position.clone(), [vec![1.0, 1.0], vec![1.0, 3.0]]),
+        );
+        assert_eq!(curves.axis, LoadAxis::Pressure { wall: 1 });
+        assert_eq!(curves.load.values, vec![1.0, 3.0]);
+        let curves = Curves::new(&h, &history(position, [vec![1.0; 2], vec![1.0; 2]]));
+        assert_eq!(curves.axis, LoadAxis::Increment);
+        assert_eq!(curves.load.values, vec![0.0, 1.0]);
+        assert!(curves.volumetric_strain.is_none());
+    }
+}

@@ -1,0 +1,277 @@
+//! Pictures of a result file, each as SVG and PNG: the curves over the written increments,
+//! the sample at one increment (forces, displacements, rotations) and radar plots of the
+//! contact fabric; with them the curves as CSV, and the XDMF for ParaView beside the result
+//! file. This is what `grainstat plot` writes, and `grainstat run` at the end of a run.
+
+mod charts;
+mod grains;
+mod radar;
+mod style;
+
+use std::path::{Path, PathBuf};
+
+use plotters::style::RGBColor;
+
+use super::curves::{write_csv, Curve, Curves, LoadAxis};
+use super::h5::input_error;
+use super::hdf5_file::{group_name, read_history, read_increments, read_state};
+use super::xdmf::write_xdmf;
+use crate::state::State;
+use crate::Error;
+use charts::{LineChart, Series};
+use grains::{Field, SamplePicture};
+use radar::{Fabric, Radar, RadarSeries, BINS};
+use style::{load_font, max_abs, save, si_unit, PALETTE};
+
+/// Where the pictures of `result` go unless told: `NAME-plots/` beside `NAME.h5`.
+pub fn default_dir(result: &Path) -> PathBuf {
+    let stem = result
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "result".into());
+    result.with_file_name(format!("{stem}-plots"))
+}
+
+/// Draw the pictures of the result file `result` into `dir` (default: [`default_dir`]) at
+/// `increment` (default: the last complete one), write the curves as `curves.csv` there and
+/// the XDMF beside the result file. Returns the files written.
+pub fn plot(
+    result: &Path,
+    dir: Option<&Path>,
+    increment: Option<usize>,
+) -> Result<Vec<PathBuf>, Error> {
+    let increments = read_increments(result)?;
+    let (Some(&first), Some(&last)) = (increments.first(), increments.last()) else {
+        return Err(input_error(result, "has no complete increment to plot"));
+    };
+    let increment = increment.unwrap_or(last);
+    if increments.binary_search(&increment).is_err() {
+        return Err(input_error(
+            result,
+            format!(
+                "has no complete increment {increment} (complete: {} of {first} .. {last})",
+                increments.len()
+            ),
+        ));
+    }
+    load_font()?;
+    let dir = dir.map_or_else(|| default_dir(result), Path::to_path_buf);
+    std::fs::create_dir_all(&dir).map_err(|e| Error::io(dir.display(), e))?;
+
+    let history = read_history(result)?;
+    let (header, state) = read_state(result, increment)?;
+    let curves = Curves::new(&header, &history);
+    let csv = dir.join("curves.csv");
+    write_csv(&csv, &header, &history, &curves)?;
+    let mut written = vec![csv];
+
+    for (name, chart) in curve_charts(&header.scene_name, &curves) {
+        written.extend(save(&chart, &dir, name)?);
+    }
+
+    let tag = group_name(increment);
+    let at = format!("increment {increment}");
+    let sample = [
+        (Field::Forces, "forces", "contact forces"),
+        (
+            Field::Displacement,
+            "displacement",
+            "displacements since the start",
+        ),
+        (Field::Rotation, "rotation", "rotations since the start"),
+    ];
+    for (field, name, what) in sample {
+        let title = format!("{}: {what}, {at}", header.scene_name);
+        let picture = SamplePicture::new(field, title, &state);
+        written.extend(save(&picture, &dir, &format!("{name}-{tag}"))?);
+    }
+
+    let start = if first == increment {
+        None
+    } else {
+        Some(read_state(result, first)?.1)
+    };
+    let (orientation, forces) = radar_plots(
+        &header.scene_name,
+        increment,
+        &state,
+        start.as_ref().map(|s| (first, s)),
+    );
+    written.extend(save(&orientation, &dir, &format!("orientation-{tag}"))?);
+    written.extend(save(&forces, &dir, &format!("contact-forces-{tag}"))?);
+
+    written.push(write_xdmf(result)?);
+    Ok(written)
+}
+
+/// Stress-strain, volumetric strain, contacts per grain and bonds broken against the load.
+fn curve_charts(scene: &str, curves: &Curves) -> Vec<(&'static str, LineChart)> {
+    let (x, x_label): (Vec<f64>, String) = match curves.axis {
+        LoadAxis::Strain { .. } => (
+            curves.load.values.iter().map(|v| 100.0 * v).collect(),
+            format!("{} [%]", curves.load.label),
+        ),
+        LoadAxis::Pressure { .. } => {
+            let unit = si_unit(max_abs(&curves.load.values), "Pa");
+            (
+                curves.load.values.iter().map(|v| v * unit.factor).collect(),
+                format!("{} [{}]", curves.load.label, unit.unit),
+            )
+        }
+        LoadAxis::Increment => (curves.load.values.clone(), curves.load.label.clone()),
+    };
+    let points = |y: &[f64], factor: f64| -> Vec<(f64, f64)> {
+        x.iter().zip(y).map(|(x, y)| (*x, y * factor)).collect()
+    };
+    let single = |label: &str, y: &[f64], factor: f64| {
+        vec![Series {
+            label: label.into(),
+            points: points(y, factor),
+            colour: PALETTE[0],
+            dashed: false,
+        }]
+    };
+    let chart = |title: &str, y_label: String, y_from_zero: bool, series: Vec<Series>| LineChart {
+        title: format!("{scene}: {title}"),
+        x_label: x_label.clone(),
+        y_label,
+        y_from_zero,
+        series,
+    };
+
+    let unit = si_unit(
+        max_abs(curves.stresses.iter().flat_map(|c| c.values.iter())),
+        "Pa",
+    );
+    let stress = curves
+        .stresses
+        .iter()
+        .map(|c| Series {
+            label: c.label.clone(),
+            points: points(&c.values, unit.factor),
+            colour: colour_of(&curves.stresses, c),
+            dashed: c.from_contacts,
+        })
+        .collect();
+    let mut charts = vec![(
+        "stress-strain",
+        chart(
+            "stresses (solid: on the walls, dashed: from the contact forces)",
+            format!("stress [{}], compression positive", unit.unit),
+            true,
+            stress,
+        ),
+    )];
+    if let Some(v) = &curves.volumetric_strain {
+        charts.push((
+            "volumetric-strain",
+            chart(
+                "volumetric strain",
+                "volumetric strain ε_v [%], compaction positive".into(),
+                false,
+                single(&v.label, &v.values, 100.0),
+            ),
+        ));
+    }
+    charts.push((
+        "contacts-per-grain",
+        chart(
+            "grain-grain contacts per grain",
+            "contacts per grain [-]".into(),
+            false,
+            single("contacts per grain", &curves.contacts_per_grain, 1.0),
+        ),
+    ));
+    charts.push((
+        "broken-bonds",
+        chart(
+            "bonds broken so far",
+            "bonds broken [-]".into(),
+            true,
+            single("bonds broken", &curves.broken_bonds, 1.0),
+        ),
+    ));
+    charts
+}
+
+/// A stress curve's colour: one per quantity, shared by its wall and contact versions.
+fn colour_of(all: &[Curve], curve: &Curve) -> RGBColor {
+    let quantity = |c: &Curve| {
+        c.key
+            .trim_end_matches("_walls")
+            .trim_end_matches("_contacts")
+            .to_owned()
+    };
+    let mut seen: Vec<String> = Vec::new();
+    for c in all {
+        let q = quantity(c);
+        if !seen.contains(&q) {
+            seen.push(q);
+        }
+    }
+    let k = seen.iter().position(|q| *q == quantity(curve)).unwrap_or(0);
+    PALETTE[k % PALETTE.len()]
+}
+
+/// The orientation histogram (against the first written increment) and the mean forces per
+/// direction.
+fn radar_plots(
+    scene: &str,
+    increment: usize,
+    state: &State,
+    start: Option<(usize, &State)>,
+) -> (Radar, Radar) {
+    let now = Fabric::of(state);
+    let mut series = vec![RadarSeries {
+        label: format!("increment {increment}"),
+        values: now.count,
+        colour: PALETTE[0],
+        dashed: false,
+    }];
+    if let Some((first, s)) = start {
+        series.push(RadarSeries {
+            label: format!("increment {first}"),
+            values: Fabric::of(s).count,
+            colour: PALETTE[1],
+            dashed: true,
+        });
+    }
+    let orientation = Radar {
+        title: format!(
+            "{scene}: grain-grain contacts per {}° of contact angle",
+            180 / BINS
+        ),
+        series,
+    };
+
+    let unit = si_unit(max_abs(now.normal.iter().chain(&now.shear)), "N");
+    let mut series = Vec::new();
+    for (name, values, colour) in [
+        ("F_n", now.normal, PALETTE[0]),
+        ("F_s", now.shear, PALETTE[1]),
+    ] {
+        let part = |sign: f64| values.map(|v| (sign * v).max(0.0) * unit.factor);
+        series.push(RadarSeries {
+            label: format!("mean {name} > 0"),
+            values: part(1.0),
+            colour,
+            dashed: false,
+        });
+        if values.iter().any(|v| *v < 0.0) {
+            series.push(RadarSeries {
+                label: format!("-(mean {name}) where < 0"),
+                values: part(-1.0),
+                colour,
+                dashed: true,
+            });
+        }
+    }
+    let forces = Radar {
+        title: format!(
+            "{scene}: mean contact forces [{}] by contact angle, increment {increment}",
+            unit.unit
+        ),
+        series,
+    };
+    (orientation, forces)
+}
