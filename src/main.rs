@@ -287,8 +287,17 @@ fn run(
         }
         None => {
             let base = scene_path.parent().unwrap_or(Path::new("."));
-            let grains = build_grains(&scene.grains, base, &scene_file)?;
-            let sim = Simulation::new(&scene, grains, config, &scene_file)?;
+            let sim = match (&scene.grains.sample, &scene.grains.walls) {
+                // The prepared equilibrium itself: walls kept, contacts with their history.
+                (Some(sample), Some(_)) => {
+                    let sample = grainstat::sample::read_sample(base.join(sample))?;
+                    Simulation::from_sample(&scene, sample, config, &scene_file)?
+                }
+                _ => {
+                    let grains = build_grains(&scene.grains, base, &scene_file)?;
+                    Simulation::new(&scene, grains, config, &scene_file)?
+                }
+            };
             let out = output
                 .or_else(|| scene.output.file.as_ref().map(PathBuf::from))
                 .unwrap_or_else(|| PathBuf::from(format!("results/{}.h5", scene.name)));

@@ -1,10 +1,10 @@
 //! Sample files: a prepared sample reads back exactly (HDF5 and CSV), bad files are input
 //! errors naming the file, and a scene can start from a sample.
 
-use grainstat::geometry::GrainSet;
+use grainstat::geometry::{Circle, GrainSet, Pair, Side, Wall, WallControl, WallSet};
 use grainstat::sample::{
-    read_csv, read_sample, sprinkle, write_csv, write_sample, Region, SampleFile, SizeDistribution,
-    SizeKind,
+    read_csv, read_sample, sprinkle, write_csv, write_sample, ContactHistory, Region, SampleFile,
+    SizeDistribution, SizeKind,
 };
 use grainstat::scene::{build_grains, load_scene, parse_scene};
 use grainstat::{Error, InputError};
@@ -33,6 +33,56 @@ fn prepared(n: usize, region: Region) -> SampleFile {
         stress: 1e5 / 3.0,
         contacts_per_grain: 3.987_654_321,
         bonds: (1..n).step_by(3).map(|i| (i - 1, i)).collect(),
+        walls: WallSet {
+            walls: vec![
+                Wall {
+                    name: "bottom".into(),
+                    normal: [0.0, 1.0],
+                    offset: -1e-4,
+                    position: 3.25e-7,
+                    slide: 0.0,
+                    control: WallControl::Stress,
+                    stress: 1e5 / 3.0,
+                    length: None,
+                    friction: f64::INFINITY,
+                    circle: None,
+                },
+                Wall {
+                    name: "ring".into(),
+                    normal: [0.0; 2],
+                    offset: 0.0,
+                    position: -1e-9,
+                    slide: 0.0,
+                    control: WallControl::Displacement,
+                    stress: 0.0,
+                    length: Some(2e-3),
+                    friction: 0.5,
+                    circle: Some(Circle {
+                        center: [1e-3, 2e-3],
+                        radius: 5e-3,
+                        grains_inside: true,
+                    }),
+                },
+            ],
+        },
+        contacts: vec![
+            ContactHistory {
+                pair: Pair {
+                    a: Side::Grain(0),
+                    b: 1,
+                },
+                shear_force: -1.0 / 3.0,
+                shear_displacement: 1e-9 / 7.0,
+            },
+            ContactHistory {
+                pair: Pair {
+                    a: Side::Wall(1),
+                    b: 2,
+                },
+                shear_force: 2.5e-3,
+                shear_displacement: 0.0,
+            },
+        ],
     }
 }
 
@@ -106,6 +156,8 @@ fn an_empty_sample_reads_back() {
         stress: 0.0,
         contacts_per_grain: 0.0,
         bonds: vec![],
+        walls: WallSet::default(),
+        contacts: vec![],
     };
     let path = dir.path().join("empty.h5");
     write_sample(&path, &sample).unwrap();

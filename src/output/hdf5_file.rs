@@ -653,7 +653,7 @@ pub(crate) fn increment_groups(inc: &Group) -> R<Vec<(usize, String, bool)>> {
 // ---------------------------------------------------------------------------------------
 // Small helpers.
 
-fn control_name(c: WallControl) -> &'static str {
+pub(crate) fn control_name(c: WallControl) -> &'static str {
     match c {
         WallControl::Displacement => "displacement",
         WallControl::Stress => "stress",
@@ -661,14 +661,14 @@ fn control_name(c: WallControl) -> &'static str {
 }
 
 /// Pair side `a` as stored: a grain index, or `-(w + 1)` for wall `w`.
-fn side_code(a: Side) -> i64 {
+pub(crate) fn side_code(a: Side) -> i64 {
     match a {
         Side::Grain(i) => i as i64,
         Side::Wall(w) => -(w as i64) - 1,
     }
 }
 
-fn decode_pair(a: i64, b: i64, grains: usize, walls: usize) -> R<Pair> {
+pub(crate) fn decode_pair(a: i64, b: i64, grains: usize, walls: usize) -> R<Pair> {
     let bad = || Fail(format!("pair ({a}, {b}) names no grain or wall"));
     let b = usize::try_from(b)
         .ok()
@@ -746,30 +746,29 @@ fn write_header(file: &File, h: &RunHeader) -> R<()> {
     let index: Array1<i64> = (0..h.radius.len() as i64).collect();
     put(&grains, "index", index.view())?;
 
-    let walls = file.create_group("walls")?;
-    let names: Vec<String> = h.walls.iter().map(|w| w.name.clone()).collect();
-    put_strings(&walls, "name", &names)?;
-    let normal: Vec<[f64; 2]> = h.walls.iter().map(|w| w.normal).collect();
-    put(&walls, "normal", ArrayView2::from(&normal[..]))?;
-    let offset: Vec<f64> = h.walls.iter().map(|w| w.offset).collect();
-    put(&walls, "offset", ArrayView1::from(&offset[..]))?;
-    let control: Vec<String> = h
-        .walls
+    write_walls(&file.create_group("walls")?, &h.walls)?;
+    write_membranes(file, &h.membranes)
+}
+
+/// The static part of walls, one row per wall, into `group` (`/walls` of a result file).
+pub(crate) fn write_walls(group: &Group, walls: &[WallHeader]) -> R<()> {
+    let names: Vec<String> = walls.iter().map(|w| w.name.clone()).collect();
+    put_strings(group, "name", &names)?;
+    let normal: Vec<[f64; 2]> = walls.iter().map(|w| w.normal).collect();
+    put(group, "normal", ArrayView2::from(&normal[..]))?;
+    let offset: Vec<f64> = walls.iter().map(|w| w.offset).collect();
+    put(group, "offset", ArrayView1::from(&offset[..]))?;
+    let control: Vec<String> = walls
         .iter()
         .map(|w| control_name(w.control).to_owned())
         .collect();
-    put_strings(&walls, "control", &control)?;
-    let friction: Vec<f64> = h.walls.iter().map(|w| w.friction).collect();
-    put(&walls, "friction", ArrayView1::from(&friction[..]))?;
-    let length: Vec<f64> = h
-        .walls
-        .iter()
-        .map(|w| w.length.unwrap_or(f64::NAN))
-        .collect();
-    put(&walls, "length", ArrayView1::from(&length[..]))?;
+    put_strings(group, "control", &control)?;
+    let friction: Vec<f64> = walls.iter().map(|w| w.friction).collect();
+    put(group, "friction", ArrayView1::from(&friction[..]))?;
+    let length: Vec<f64> = walls.iter().map(|w| w.length.unwrap_or(f64::NAN)).collect();
+    put(group, "length", ArrayView1::from(&length[..]))?;
     // Circles as centre x, centre y, radius, grains inside (1) or outside (0); NaN for lines.
-    let circle: Vec<[f64; 4]> = h
-        .walls
+    let circle: Vec<[f64; 4]> = walls
         .iter()
         .map(|w| match w.circle {
             Some(c) => [
@@ -781,38 +780,20 @@ fn write_header(file: &File, h: &RunHeader) -> R<()> {
             None => [f64::NAN; 4],
         })
         .collect();
-    put(&walls, "circle", ArrayView2::from(&circle[..]))?;
-    write_membranes(file, &h.membranes)
+    put(group, "circle", ArrayView2::from(&circle[..]))?;
+    Ok(())
 }
 
-fn read_header(file: &File) -> R<RunHeader> {
-    let version = get_attr::<i64>(file, "format_version")?;
-    if version != FORMAT_VERSION {
-        return Err(Fail(format!(
-            "layout version {version}; this grainstat reads version {FORMAT_VERSION}"
-        )));
-    }
-    let text = |name: &str| -> R<String> {
-        let run = file.group("run")?;
-        let v = dataset(&run, name)?
-            .read_scalar::<VarLenUnicode>()
-            .map_err(|e| Fail(format!("dataset `/run/{name}`: {e}")))?;
-        Ok(v.as_str().to_owned())
-    };
-    let grains = file.group("grains")?;
-    let n = get_count(file, "grains")?;
-    let radius = read_vec::<f64>(&grains, "radius", Some(n))?;
-
-    let walls = file.group("walls")?;
-    let w = get_count(file, "walls")?;
-    let names = read_vec::<VarLenUnicode>(&walls, "name", Some(w))?;
-    let normal = read_rows::<f64, 2>(&walls, "normal", Some(w))?;
-    let offset = read_vec::<f64>(&walls, "offset", Some(w))?;
-    let control = read_vec::<VarLenUnicode>(&walls, "control", Some(w))?;
-    let friction = read_vec::<f64>(&walls, "friction", Some(w))?;
-    let length = read_vec::<f64>(&walls, "length", Some(w))?;
-    let circle = read_rows::<f64, 4>(&walls, "circle", Some(w))?;
-    let walls = (0..w)
+/// The static part of `w` walls from `group`, as [`write_walls`] wrote them.
+pub(crate) fn read_walls(group: &Group, w: usize) -> R<Vec<WallHeader>> {
+    let names = read_vec::<VarLenUnicode>(group, "name", Some(w))?;
+    let normal = read_rows::<f64, 2>(group, "normal", Some(w))?;
+    let offset = read_vec::<f64>(group, "offset", Some(w))?;
+    let control = read_vec::<VarLenUnicode>(group, "control", Some(w))?;
+    let friction = read_vec::<f64>(group, "friction", Some(w))?;
+    let length = read_vec::<f64>(group, "length", Some(w))?;
+    let circle = read_rows::<f64, 4>(group, "circle", Some(w))?;
+    (0..w)
         .map(|k| {
             let control = match control[k].as_str() {
                 "displacement" => WallControl::Displacement,
@@ -833,7 +814,28 @@ fn read_header(file: &File) -> R<RunHeader> {
                 }),
             })
         })
-        .collect::<R<Vec<_>>>()?;
+        .collect()
+}
+
+fn read_header(file: &File) -> R<RunHeader> {
+    let version = get_attr::<i64>(file, "format_version")?;
+    if version != FORMAT_VERSION {
+        return Err(Fail(format!(
+            "layout version {version}; this grainstat reads version {FORMAT_VERSION}"
+        )));
+    }
+    let text = |name: &str| -> R<String> {
+        let run = file.group("run")?;
+        let v = dataset(&run, name)?
+            .read_scalar::<VarLenUnicode>()
+            .map_err(|e| Fail(format!("dataset `/run/{name}`: {e}")))?;
+        Ok(v.as_str().to_owned())
+    };
+    let grains = file.group("grains")?;
+    let n = get_count(file, "grains")?;
+    let radius = read_vec::<f64>(&grains, "radius", Some(n))?;
+
+    let walls = read_walls(&file.group("walls")?, get_count(file, "walls")?)?;
 
     Ok(RunHeader {
         scene_name: get_str_attr(file, "scene_name")?,

@@ -13,6 +13,8 @@
 //! | `/bonds` | (K, 2) int64: the grain pairs that are cemented |
 //! | `/region` attributes | `shape` (`"rectangle"`, `"annulus"` or `"beam"`) and its dimensions (m): `width`, `height`; `inner_radius`, `outer_radius`; `length`, `height` |
 //! | `/distribution` attributes (absent when unknown) | `kind` (`"a"` or `"b"`), `mean_radius` (m), `ratio` |
+//! | `/walls` (absent in samples without walls) | the walls that held the sample, as in a result file's `/walls`, with `position` and `stress` (W,) f64: where each ended and the stress it carried |
+//! | `/contacts` (absent likewise) | `pair` (M, 2) int64 coded as in a result file, `shear_force` (M,) f64 (N) and `shear_displacement` (M,) f64 (m): every contact with its history |
 //!
 //! Origin and displacement are both kept, as in the result file: the solver forms contact
 //! geometry from them, and `position` cannot be split again exactly. A CSV file
@@ -26,11 +28,12 @@ use ndarray::{ArrayView1, ArrayView2};
 
 use super::{Region, SizeDistribution, SizeKind};
 use crate::error::Error;
-use crate::geometry::GrainSet;
+use crate::geometry::{GrainSet, Pair, Side, WallSet};
 use crate::output::h5::{
     get_attr, get_str_attr, input_error, put, read_rows, read_vec, require_format, set_attr,
     set_str_attr, Fail, R,
 };
+use crate::output::hdf5_file::{decode_pair, read_walls, side_code, write_walls, WallHeader};
 
 /// Value of the root attribute `format`: tells sample files from other HDF5 files.
 pub const FORMAT: &str = "grainstat-sample";
@@ -57,6 +60,22 @@ pub struct SampleFile {
     pub contacts_per_grain: f64,
     /// Cemented grain pairs `(i, j)`, `i != j` (may be empty).
     pub bonds: Vec<(usize, usize)>,
+    /// The walls that held the sample, where they ended (empty when not kept).
+    pub walls: WallSet,
+    /// Every contact with its history, so a test starts from the prepared equilibrium (empty
+    /// when not kept).
+    pub contacts: Vec<ContactHistory>,
+}
+
+/// A contact of a prepared sample and what it remembers.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ContactHistory {
+    /// The pair (walls indexed as in [`SampleFile::walls`]).
+    pub pair: Pair,
+    /// Shear force (N).
+    pub shear_force: f64,
+    /// Accumulated shear displacement (m).
+    pub shear_displacement: f64,
 }
 
 /// Writes a sample file (creating its folder, overwriting the file). A sample whose parts
@@ -174,6 +193,19 @@ fn check_sample(s: &SampleFile) -> Result<(), String> {
             ));
         }
     }
+    for (k, h) in s.contacts.iter().enumerate() {
+        let a_ok = match h.pair.a {
+            Side::Grain(a) => a < h.pair.b,
+            Side::Wall(w) => w < s.walls.len(),
+        };
+        if !(a_ok && h.pair.b < n && h.shear_force.is_finite() && h.shear_displacement.is_finite())
+        {
+            return Err(format!(
+                "contact {k} ({:?}) does not fit the sample",
+                h.pair
+            ));
+        }
+    }
     s.region.check().map_err(|e| e.to_string())?;
     if let Some(d) = &s.distribution {
         d.check().map_err(|e| e.to_string())?;
@@ -227,6 +259,29 @@ fn write_file(file: &File, s: &SampleFile) -> R<()> {
         set_str_attr(&g, "kind", d.kind.name())?;
         set_attr(&g, "mean_radius", &d.mean_radius)?;
         set_attr(&g, "ratio", &d.ratio)?;
+    }
+
+    if !s.walls.is_empty() || !s.contacts.is_empty() {
+        let w = file.create_group("walls")?;
+        write_walls(
+            &w,
+            &s.walls.walls.iter().map(WallHeader::of).collect::<Vec<_>>(),
+        )?;
+        let position: Vec<f64> = s.walls.walls.iter().map(|w| w.position).collect();
+        put(&w, "position", ArrayView1::from(&position[..]))?;
+        let stress: Vec<f64> = s.walls.walls.iter().map(|w| w.stress).collect();
+        put(&w, "stress", ArrayView1::from(&stress[..]))?;
+        let c = file.create_group("contacts")?;
+        let pair: Vec<[i64; 2]> = s
+            .contacts
+            .iter()
+            .map(|h| [side_code(h.pair.a), h.pair.b as i64])
+            .collect();
+        put(&c, "pair", ArrayView2::from(&pair[..]))?;
+        let shear: Vec<f64> = s.contacts.iter().map(|h| h.shear_force).collect();
+        put(&c, "shear_force", ArrayView1::from(&shear[..]))?;
+        let slip: Vec<f64> = s.contacts.iter().map(|h| h.shear_displacement).collect();
+        put(&c, "shear_displacement", ArrayView1::from(&slip[..]))?;
     }
     Ok(())
 }
@@ -299,7 +354,34 @@ fn read_file(file: &File) -> R<SampleFile> {
         None
     };
 
+    let (mut walls, mut contacts) = (WallSet::default(), Vec::new());
+    if file.link_exists("walls") {
+        let w = file.group("walls")?;
+        let count = read_vec::<f64>(&w, "position", None)?.len();
+        let position = read_vec::<f64>(&w, "position", Some(count))?;
+        let stress = read_vec::<f64>(&w, "stress", Some(count))?;
+        walls.walls = read_walls(&w, count)?
+            .iter()
+            .zip(position.iter().zip(&stress))
+            .map(|(h, (&p, &s))| h.wall(p, 0.0, s))
+            .collect();
+        let c = file.group("contacts")?;
+        let pair = read_rows::<i64, 2>(&c, "pair", None)?;
+        let m = pair.len();
+        let shear = read_vec::<f64>(&c, "shear_force", Some(m))?;
+        let slip = read_vec::<f64>(&c, "shear_displacement", Some(m))?;
+        for (k, [a, b]) in pair.into_iter().enumerate() {
+            contacts.push(ContactHistory {
+                pair: decode_pair(a, b, n, count)?,
+                shear_force: shear[k],
+                shear_displacement: slip[k],
+            });
+        }
+    }
+
     Ok(SampleFile {
+        walls,
+        contacts,
         grains,
         region,
         distribution,

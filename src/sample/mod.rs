@@ -23,7 +23,8 @@ mod sprinkle;
 
 pub use distribution::{SizeDistribution, SizeKind};
 pub use file::{
-    read_csv, read_sample, write_csv, write_sample, SampleFile, FORMAT, FORMAT_VERSION,
+    read_csv, read_sample, write_csv, write_sample, ContactHistory, SampleFile, FORMAT,
+    FORMAT_VERSION,
 };
 pub use sprinkle::{sprinkle, Region, MAX_TRIES};
 

@@ -6,7 +6,7 @@
 //! and, for a cemented material, every grain-grain contact is bonded.
 
 use super::grow::{grow, GrowReport, GrowSettings};
-use super::{sprinkle, Region, SampleFile, SizeDistribution};
+use super::{sprinkle, ContactHistory, Region, SampleFile, SizeDistribution};
 use crate::contact::SlipTangent;
 use crate::geometry::{Circle, GrainSet, Side, Wall, WallControl, WallSet};
 use crate::measure::Measurements;
@@ -261,6 +261,17 @@ pub fn prepare(
         stress: spec.stress,
         contacts_per_grain: measurements.contacts_per_grain,
         bonds,
+        walls: state.walls.clone(),
+        contacts: state
+            .contacts
+            .contacts
+            .iter()
+            .map(|c| ContactHistory {
+                pair: c.pair,
+                shear_force: c.shear_force0,
+                shear_displacement: c.shear_displacement0,
+            })
+            .collect(),
     };
     Ok(Prepared {
         sample,

@@ -198,6 +198,12 @@ pub struct GrainSource {
     /// file: its grains exactly as saved, displacements and rotations included.
     #[serde(default)]
     pub sample: Option<String>,
+    /// With `sample`: start from the prepared equilibrium itself. The sample's walls named
+    /// here stay where they ended, each with the control this test gives it (a wall turned
+    /// to stress control starts at the stress the sample was prepared to), the others go;
+    /// every contact keeps its shear force and bond. The scene's own walls come after them.
+    #[serde(default)]
+    pub walls: Option<BTreeMap<String, WallControl>>,
 }
 
 /// Equal grains in a hexagonal arrangement: horizontal rows, each row shifted by one radius

@@ -119,6 +119,12 @@ pub(crate) fn grain_problems(g: &GrainSource) -> Vec<(String, String)> {
             p.push("grains.file", "must name a CSV file of `x, y, r` lines");
         }
     }
+    if g.walls.is_some() && g.sample.is_none() {
+        p.push(
+            "grains.walls",
+            "keeps walls of a prepared sample: give `sample = \"sample.h5\"` too",
+        );
+    }
     if let Some(sample) = &g.sample {
         if sample.trim().is_empty() {
             p.push(
@@ -227,7 +233,8 @@ fn material(m: &Material, p: &mut Problems) {
 
 /// Checks `box` and `[[walls]]`; returns every wall name with its control.
 fn walls(scene: &Scene, p: &mut Problems) -> BTreeMap<String, WallControl> {
-    let mut known = BTreeMap::new();
+    // The walls kept from a sample (checked against the sample when it is read).
+    let mut known = scene.grains.walls.clone().unwrap_or_default();
     if let Some(b) = &scene.wall_box {
         p.friction("box.friction", b.friction);
         p.finite("box.stress", b.stress);

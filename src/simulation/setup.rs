@@ -336,6 +336,115 @@ impl Simulation {
 }
 
 impl Simulation {
+    /// A simulation of `scene` starting from the prepared equilibrium of `sample`: the walls
+    /// that `[grains] walls` keeps, with the controls it gives them, then the scene's own;
+    /// the sample's contacts with their shear forces and bonds, and contacts with the scene's
+    /// walls as a fresh scene makes them. `file` names the scene in errors.
+    pub fn from_sample(
+        scene: &Scene,
+        sample: crate::sample::SampleFile,
+        config: SolverConfig,
+        file: &str,
+    ) -> Result<Simulation, Error> {
+        let keep = scene.grains.walls.clone().unwrap_or_default();
+        let names: Vec<&str> = sample.walls.walls.iter().map(|w| w.name.as_str()).collect();
+        if let Some(name) = keep.keys().find(|k| !names.contains(&k.as_str())) {
+            return Err(InputError::new(
+                file,
+                format!(
+                    "the sample has no wall `{name}`; its walls are [{}]",
+                    names.join(", ")
+                ),
+            )
+            .at_key(format!("grains.walls.{name}"))
+            .into());
+        }
+        let grains = sample.grains;
+        if grains.is_empty() {
+            return Err(InputError::new(file, "the sample has no grains")
+                .at_key("grains.sample")
+                .into());
+        }
+        // The kept walls in the sample's order, then the scene's.
+        let mut index = vec![None; sample.walls.len()];
+        let mut walls = WallSet::default();
+        for (w, wall) in sample.walls.walls.into_iter().enumerate() {
+            if let Some(&control) = keep.get(&wall.name) {
+                index[w] = Some(walls.len());
+                let stress = if control == WallControl::Stress && wall.control != control {
+                    sample.stress
+                } else {
+                    wall.stress
+                };
+                walls.walls.push(Wall {
+                    control,
+                    stress,
+                    ..wall
+                });
+            }
+        }
+        let kept = walls.len();
+        walls.walls.extend(build_walls(scene, &grains).walls);
+
+        let material = MaterialModel::from_scene(scene);
+        let skin = config.skin * grains.mean_radius();
+        let fresh = initial_contacts(&material, &grains, &walls, skin);
+        let bonds: std::collections::HashSet<(usize, usize)> =
+            sample.bonds.iter().copied().collect();
+        let mut contacts: Vec<Contact> = if sample.contacts.is_empty() {
+            fresh
+                .contacts
+                .iter()
+                .filter(|c| matches!(c.pair.a, Side::Grain(_)))
+                .cloned()
+                .collect()
+        } else {
+            sample
+                .contacts
+                .iter()
+                .filter_map(|h| {
+                    let a = match h.pair.a {
+                        Side::Wall(w) => Side::Wall(index[w]?),
+                        grain => grain,
+                    };
+                    let pair = Pair { a, b: h.pair.b };
+                    let bonded = material.bonded
+                        && matches!(a, Side::Grain(i) if bonds.contains(&(i, pair.b)));
+                    let mut c = Contact::new(pair, material.params(pair, &grains, &walls), bonded);
+                    c.shear_force0 = h.shear_force;
+                    c.shear_displacement0 = h.shear_displacement;
+                    Some(c)
+                })
+                .collect()
+        };
+        contacts.extend(
+            fresh
+                .contacts
+                .into_iter()
+                .filter(|c| matches!(c.pair.a, Side::Wall(w) if w >= kept)),
+        );
+        contacts.sort_by_key(|c| c.pair);
+
+        let depth = scene
+            .material
+            .depth
+            .unwrap_or_else(|| 2.0 * grains.mean_radius());
+        let membranes = build_membranes(scene);
+        let stages = build_stages(scene, &walls, &membranes);
+        let contacts = ContactSet {
+            contacts,
+            broken_bonds: Vec::new(),
+        };
+        let state = State::fresh(grains, walls, contacts, membranes);
+        let mut sim =
+            Simulation::from_state(scene.name.clone(), config, material, depth, stages, state)?;
+        // The responses of the committed state, for what is measured before the first step.
+        sim.equilibrium_error();
+        Ok(sim)
+    }
+}
+
+impl Simulation {
     /// A simulation of `scene` continuing from a state read back from its result file.
     pub fn resume(
         scene: &Scene,
