@@ -113,11 +113,31 @@ fn a_rectangle_handed_to_side_membranes_carries_the_biaxial_load() {
     }
 }
 
+/// How an annulus is loaded for the Lame check.
+#[derive(Clone, Copy, PartialEq)]
+enum Outer {
+    /// In the frictionless ring and around the plug it was prepared with: the ring's stress
+    /// is raised while the plug's is held, and the change of stress is compared with Lame's
+    /// for the change of outer pressure (elastic, so the changes superpose).
+    Ring,
+    /// Borehole freed of its plug, a membrane all around.
+    Membrane,
+}
+
 #[test]
-#[ignore = "does not converge yet: freed of its plug, the annulus's first increment stalls \
-            (membranes alone leave its rigid motions free, and outer grains chatter open and \
-            shut); run with --ignored"]
-fn a_cemented_annulus_under_outer_pressure_follows_lame() {
+fn a_cemented_annulus_in_a_ring_under_pressure_follows_lame() {
+    annulus_follows_lame(Outer::Ring);
+}
+
+#[test]
+#[ignore = "does not converge yet: freed of its plug and its ring, the annulus's first \
+            increment stalls (membranes alone leave its rigid motions free, and outer grains \
+            chatter open and shut); run with --ignored"]
+fn a_cemented_annulus_under_a_membrane_follows_lame() {
+    annulus_follows_lame(Outer::Membrane);
+}
+
+fn annulus_follows_lame(outer_boundary: Outer) {
     let p0 = 1e6;
     let prepared = prepared(RegionShape::Annulus, 3.0, 2000, p0);
     let mut state = prepared.state;
@@ -126,59 +146,80 @@ fn a_cemented_annulus_under_outer_pressure_follows_lame() {
         w.surface(w.position)
     };
     let (inner, outer) = (radius("inner"), radius("outer"));
-    // The borehole is freed of its plug and the ring is handed to a membrane.
-    state.keep_walls(&[]);
-    state.membranes = vec![Membrane {
-        name: "outer".into(),
-        shape: MembraneShape::Ring { center: [0.0; 2] },
-        pressure: p0,
-    }];
     let p1 = 3.0 * p0;
-    let stages = vec![stage(4, 0, vec![], vec![Some(p1)])];
-    let mut sim = Simulation::from_state(
-        "lame".into(),
-        SolverConfig::default(),
-        sandstone(),
-        prepared.depth,
-        stages,
-        state,
-    )
-    .unwrap();
-    while !sim.is_finished() {
-        sim.run_increment()
-            .unwrap_or_else(|e| panic!("increment {}: {e}", sim.state.increment + 1));
-    }
-    let (error, grain) = sim.equilibrium_error();
-    assert!(error < 1e-6, "imbalance {error:e} at grain {grain}");
-    assert_eq!(sim.state.contacts.broken_bonds.len(), 0, "elastic");
-
-    // Eq. A.113 with no pressure in the borehole: sigma_rr = A (1 - a^2/r^2),
-    // sigma_tt = A (1 + a^2/r^2), A = p b^2 / (b^2 - a^2).
-    let d = 2.0 * sim.mean_radius();
-    let a_coef = p1 * outer * outer / (outer * outer - inner * inner);
+    let (stages, pressure_change) = match outer_boundary {
+        // Walls: the ring ("outer") and the plug ("inner"), both stress-controlled.
+        Outer::Ring => (vec![stage(4, 2, vec![Some(p1), Some(p0)], vec![])], p1 - p0),
+        Outer::Membrane => {
+            state.keep_walls(&[]);
+            state.membranes = vec![Membrane {
+                name: "outer".into(),
+                shape: MembraneShape::Ring { center: [0.0; 2] },
+                pressure: p0,
+            }];
+            (vec![stage(4, 0, vec![], vec![Some(p1)])], p1)
+        }
+    };
+    let d = 2.0 * state.grains.mean_radius();
     let edges: Vec<f64> = (0..)
         .map(|k| inner + 2.0 * d + 3.0 * d * k as f64)
         .take_while(|&r| r <= outer - 2.0 * d)
         .collect();
-    let rings = ring_stresses(
-        &sim.state.grains,
-        &sim.state.contacts,
-        [0.0; 2],
-        &edges,
-        sim.depth,
-    );
-    assert!(rings.len() >= 3, "{} rings", rings.len());
-    eprintln!("r / r_inner, sigma_rr / p, Lame, sigma_tt / p, Lame:");
-    for (r, srr, stt) in rings {
+    let depth = prepared.depth;
+    let rings_of = |sim: &Simulation| {
+        ring_stresses(
+            &sim.state.grains,
+            &sim.state.contacts,
+            [0.0; 2],
+            &edges,
+            depth,
+        )
+    };
+    let mut sim = Simulation::from_state(
+        "lame".into(),
+        SolverConfig::default(),
+        sandstone(),
+        depth,
+        stages,
+        state,
+    )
+    .unwrap();
+    // The stresses before: the prepared isotropic state (the plug then counts as freed).
+    let before = match outer_boundary {
+        Outer::Ring => rings_of(&sim),
+        Outer::Membrane => edges
+            .windows(2)
+            .map(|w| (0.5 * (w[0] + w[1]), 0.0, 0.0))
+            .collect(),
+    };
+    while !sim.is_finished() {
+        sim.run_increment()
+            .unwrap_or_else(|e| panic!("increment {}: {e}", sim.state.increment + 1));
+    }
+    // The spring that holds the free rotation collects the rotational part of the residual
+    // every grain is allowed (tolerance 1e-8 each, 2,000 grains).
+    let (error, grain) = sim.equilibrium_error();
+    assert!(error < 1e-4, "imbalance {error:e} at grain {grain}");
+    assert_eq!(sim.state.contacts.broken_bonds.len(), 0, "elastic");
+
+    // Eq. A.113 with no change of pressure in the borehole: sigma_rr = A (1 - a^2/r^2),
+    // sigma_tt = A (1 + a^2/r^2), A = p b^2 / (b^2 - a^2), for the change p of the outer one.
+    let a_coef = pressure_change * outer * outer / (outer * outer - inner * inner);
+    let after = rings_of(&sim);
+    assert!(after.len() >= 3, "{} rings", after.len());
+    eprintln!("r / r_inner, change of sigma_rr / p, Lame, of sigma_tt / p, Lame:");
+    for ((r, rr1, tt1), (_, rr0, tt0)) in after.into_iter().zip(before) {
+        let (srr, stt) = (rr1 - rr0, tt1 - tt0);
         let q = inner * inner / (r * r);
         let (lame_rr, lame_tt) = (a_coef * (1.0 - q), a_coef * (1.0 + q));
+        let p = pressure_change;
         eprintln!(
             "  {:.2}  {:.3} {:.3}  {:.3} {:.3}",
             r / inner,
-            srr / p1,
-            lame_rr / p1,
-            stt / p1,
-            lame_tt / p1
+            srr / p,
+            lame_rr / p,
+            stt / p,
+            lame_tt / p
         );
         assert!(
             (srr - lame_rr).abs() < 0.15 * lame_rr,

@@ -224,11 +224,13 @@ pub fn prepare(
     let state = State::fresh(grains, walls, contacts, Vec::new());
     // The consistent tangent: near rest many contacts sit on the Coulomb limit, where the
     // elasto-plastic one converges only linearly; this solve is made once per sample. The
-    // load is held, so halving the step would not help.
+    // load is held, so halving the step would not help. Gaps left by growth close one
+    // topology pass at a time, and there are more of them the larger the sample.
     let exact = SolverConfig {
         linear: LinearKind::Lu,
         slip_tangent: SlipTangent::Consistent,
         max_cuts: 0,
+        max_topology_passes: config.max_topology_passes.max(spec.grains.div_ceil(50)),
         ..config.clone()
     };
     let mut sim = Simulation::from_state("prepare".into(), exact, soft, depth, vec![hold], state)?;

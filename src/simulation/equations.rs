@@ -46,6 +46,59 @@ impl LoadStep {
     }
 }
 
+/// A spring on one grain along `direction`, holding a rigid-body motion of the sample that no
+/// wall holds: its rotation inside frictionless rings and plugs, and also its translations
+/// when membranes alone bound it. The loads on such a sample balance in those motions, so in
+/// equilibrium the anchors, three at most and statically determinate, carry nothing: they
+/// make the system regular without changing the answer.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Anchor {
+    /// The grain held.
+    pub grain: usize,
+    /// Unit direction it is held in.
+    pub direction: [f64; 2],
+}
+
+/// The anchors a sample needs: none while a straight wall or friction holds it; its rotation
+/// inside frictionless circles alone; its translations too with no walls at all. Chosen from
+/// the grains' start positions, so a resumed run has the same: the grain nearest the
+/// centroid takes the translations, the one farthest from it the rotation.
+pub fn anchors(grains: &GrainSet, walls: &WallSet) -> Vec<Anchor> {
+    let straight = walls.walls.iter().any(|w| w.circle.is_none());
+    let friction = walls.walls.iter().any(|w| w.friction != 0.0);
+    if grains.len() < 2 || straight || friction {
+        return Vec::new();
+    }
+    let n = grains.len() as f64;
+    let centroid = grains
+        .origin
+        .iter()
+        .fold([0.0; 2], |c, p| [c[0] + p[0] / n, c[1] + p[1] / n]);
+    let offset = |g: usize| {
+        let p = grains.origin[g];
+        [p[0] - centroid[0], p[1] - centroid[1]]
+    };
+    let distance = |g: usize| offset(g)[0].hypot(offset(g)[1]);
+    let order = |a: &usize, b: &usize| distance(*a).total_cmp(&distance(*b)).then(a.cmp(b));
+    let far = (0..grains.len()).max_by(order).expect("grains");
+    let mut out = Vec::new();
+    if walls.is_empty() {
+        let near = (0..grains.len()).min_by(order).expect("grains");
+        for direction in [[1.0, 0.0], [0.0, 1.0]] {
+            out.push(Anchor {
+                grain: near,
+                direction,
+            });
+        }
+    }
+    let (r, size) = (offset(far), distance(far));
+    out.push(Anchor {
+        grain: far,
+        direction: [-r[1] / size, r[0] / size],
+    });
+    out
+}
+
 /// Everything one evaluation reads, and the contacts it updates (their trial responses).
 pub struct IncrementEquations<'a> {
     /// Committed grains (start of the increment).
@@ -65,6 +118,8 @@ pub struct IncrementEquations<'a> {
     pub membranes: &'a [Membrane],
     /// Each membrane's chain for this increment.
     pub chains: &'a [Chain],
+    /// Springs on the rigid-body motions no wall holds.
+    pub anchors: &'a [Anchor],
     /// Unknowns.
     pub dofs: &'a DofMap,
     /// Pattern and slot maps.
@@ -228,6 +283,24 @@ impl IncrementEquations<'_> {
         }
     }
 
+    /// The anchors' springs, `k d d^T` on the grain's move in the increment.
+    fn anchor_springs(&self, u: &[f64], residual: &mut [f64], mut tangent: Option<&mut [f64]>) {
+        for anchor in self.anchors {
+            let (g, d) = (self.dofs.grain(anchor.grain), anchor.direction);
+            let stretch = u[g] * d[0] + u[g + 1] * d[1];
+            for i in 0..2 {
+                residual[g + i] -= self.stiffness_hint * stretch * d[i];
+                if let Some(t) = tangent.as_deref_mut() {
+                    for j in 0..2 {
+                        if let Some(slot) = self.pattern.slot(g + i, g + j) {
+                            t[slot] += self.stiffness_hint * d[i] * d[j];
+                        }
+                    }
+                }
+            }
+        }
+    }
+
     /// Current loaded length of wall `w`: fixed, a circle's circumference, or the gap between
     /// the walls that bound it.
     fn wall_length(&self, w: usize) -> f64 {
@@ -366,7 +439,8 @@ impl Equations for IncrementEquations<'_> {
                 }
             }
         }
-        self.membrane_loads(residual, tangent);
+        self.membrane_loads(residual, tangent.as_deref_mut());
+        self.anchor_springs(u, residual, tangent);
         // Force scale: the mean contact force, or, while contacts carry (almost) nothing, the
         // wall loads shared over the grains touching the loaded walls.
         let n_c = self.contacts.len().max(1) as f64;

@@ -4,7 +4,7 @@
 mod equations;
 mod setup;
 
-pub use equations::{IncrementEquations, LoadStep};
+pub use equations::{anchors, Anchor, IncrementEquations, LoadStep};
 pub use setup::{initial_contacts, MaterialModel, StageProgram};
 
 use crate::assembly::{DofMap, Pattern};
@@ -53,6 +53,8 @@ pub struct Simulation {
     chains: Vec<Chain>,
     /// The grain links of those chains, which the pattern holds.
     links: Vec<(usize, usize)>,
+    /// Springs on the rigid-body motions the walls leave free.
+    anchors: Vec<Anchor>,
 }
 
 /// Overlap, in mean radii, within which a contact keeps its state (made or lost).
@@ -137,6 +139,7 @@ impl Simulation {
             pair_index: Vec::new(),
             chains,
             links,
+            anchors: anchors(&state.grains, &state.walls),
             values: vec![0.0; pattern.nnz()],
             pattern,
             friends,
@@ -350,6 +353,7 @@ impl Simulation {
             step,
             membranes: &self.state.membranes,
             chains: &self.chains,
+            anchors: &self.anchors,
             dofs: &self.dofs,
             pattern: &self.pattern,
             law: self.law.as_ref(),
