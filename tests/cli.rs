@@ -2,39 +2,11 @@
 //! writes a result file that `info` reads; `--resume` continues a run to the same state as
 //! an uninterrupted one.
 
+mod common;
+
+use common::{assert_input_error, crystal_scene, grainstat, stderr};
 use grainstat::output::{read_increments, read_state};
-use grainstat::samples;
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn grainstat(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_grainstat"))
-        .args(args)
-        .output()
-        .expect("grainstat runs")
-}
-
-fn stderr(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stderr).into_owned()
-}
-
-/// A small crystal scene written to `dir`.
-fn crystal_scene(dir: &Path, every: usize) -> PathBuf {
-    let mut scene = samples::crystal_biaxial(9, 8, 1e6, 3e6);
-    scene.output.every = every;
-    let path = dir.join("crystal.toml");
-    std::fs::write(&path, toml::to_string(&scene).unwrap()).unwrap();
-    path
-}
-
-fn assert_input_error(out: &Output, expected: &[&str]) {
-    let err = stderr(out);
-    assert_eq!(out.status.code(), Some(2), "exit status of: {err}");
-    assert!(!err.contains("panicked"), "no panic: {err}");
-    for e in expected {
-        assert!(err.contains(e), "`{e}` in: {err}");
-    }
-}
+use std::path::Path;
 
 #[test]
 fn bad_scene_files_are_exit_status_2_naming_key_and_line() {

@@ -2,28 +2,15 @@
 //! reaches equilibrium, and a cemented annulus under outer pressure with a free borehole has
 //! the elastic stresses of Lame's thick-walled cylinder (eq. A.113).
 
+mod common;
+
+use common::sandstone;
 use grainstat::geometry::{Membrane, MembraneShape};
 use grainstat::measure::ring_stresses;
 use grainstat::sample::prepare::{prepare, PrepareSpec, Prepared, RegionShape};
 use grainstat::sample::{SizeDistribution, SizeKind};
-use grainstat::scene::{CohesionRadius, LawKind};
-use grainstat::simulation::{MaterialModel, Simulation, StageProgram};
+use grainstat::simulation::{Simulation, StageProgram};
 use grainstat::solver::SolverConfig;
-
-/// Sandstone, table 8.
-fn sandstone() -> MaterialModel {
-    MaterialModel {
-        law: LawKind::Linear,
-        normal_stiffness: 1e6,
-        shear_modulus: 0.0,
-        poisson: 0.16,
-        friction: 0.6,
-        cohesion: 1e8,
-        cohesion_radius: CohesionRadius::Mean,
-        bonded: true,
-        fixed_rotations: false,
-    }
-}
 
 fn prepared(shape: RegionShape, aspect: f64, grains: usize, stress: f64) -> Prepared {
     let spec = PrepareSpec {

@@ -4,29 +4,17 @@
 //! complete increment and points only at datasets that exist with the shapes it states, and
 //! bad input is exit status 2 naming the file.
 
+mod common;
+
+use common::{assert_input_error, crystal_scene, grainstat, stderr};
 use grainstat::output::{read_history, read_increments, read_state};
 use grainstat::samples;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
-
-fn grainstat(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_grainstat"))
-        .args(args)
-        .output()
-        .expect("grainstat runs")
-}
-
-fn stderr(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stderr).into_owned()
-}
 
 /// A small crystal run (written every second increment) in `dir`, with its pictures.
 fn crystal_run(dir: &Path) -> PathBuf {
-    let mut scene = samples::crystal_biaxial(9, 8, 1e6, 3e6);
-    scene.output.every = 2;
-    let path = dir.join("crystal.toml");
-    std::fs::write(&path, toml::to_string(&scene).unwrap()).unwrap();
+    let path = crystal_scene(dir, 2);
     let result = dir.join("crystal.h5");
     let out = grainstat(&[
         "run",
@@ -230,16 +218,20 @@ fn check_xdmf(xmf: &Path, result: &Path) {
     }
 }
 
+/// The pictures of `increment` and the CSV in `pictures`, the XDMF beside `result`.
+fn check_outputs(pictures: &Path, increment: usize, result: &Path) {
+    let grains = read_state(result, increment).unwrap().0.radius.len();
+    check_pictures(pictures, increment, grains);
+    check_csv(&pictures.join("curves.csv"), result);
+    check_xdmf(&result.with_extension("xmf"), result);
+}
+
 #[test]
 fn a_run_draws_its_pictures_and_writes_csv_and_xdmf() {
     let dir = tempfile::tempdir().unwrap();
     let result = crystal_run(dir.path());
     let last = *read_increments(&result).unwrap().last().unwrap();
-    let grains = read_state(&result, last).unwrap().0.radius.len();
-    let pictures = dir.path().join("crystal-plots");
-    check_pictures(&pictures, last, grains);
-    check_csv(&pictures.join("curves.csv"), &result);
-    check_xdmf(&dir.path().join("crystal.xmf"), &result);
+    check_outputs(&dir.path().join("crystal-plots"), last, &result);
 }
 
 #[test]
@@ -289,10 +281,7 @@ fn a_partly_written_file_is_plotted_up_to_its_last_complete_increment() {
         out_dir.to_str().unwrap(),
     ]);
     assert!(out.status.success(), "plot: {}", stderr(&out));
-    let grains = read_state(&result, cut).unwrap().0.radius.len();
-    check_pictures(&out_dir, cut, grains);
-    check_csv(&out_dir.join("curves.csv"), &result);
-    check_xdmf(&dir.path().join("crystal.xmf"), &result);
+    check_outputs(&out_dir, cut, &result);
 }
 
 #[test]
@@ -314,15 +303,6 @@ fn no_plot_draws_nothing() {
     assert!(result.exists());
     assert!(!dir.path().join("small-plots").exists());
     assert!(!dir.path().join("small.xmf").exists());
-}
-
-fn assert_input_error(out: &Output, expected: &[&str]) {
-    let err = stderr(out);
-    assert_eq!(out.status.code(), Some(2), "exit status of: {err}");
-    assert!(!err.contains("panicked"), "no panic: {err}");
-    for e in expected {
-        assert!(err.contains(e), "`{e}` in: {err}");
-    }
 }
 
 #[test]

@@ -1,10 +1,13 @@
 //! A test starting from a saved sample's prepared equilibrium: walls kept where they ended,
 //! contacts with their shear forces and bonds, so nothing moves until the test loads it.
 
+mod common;
+
+use common::sandstone;
 use grainstat::sample::prepare::{prepare, PrepareSpec, RegionShape};
 use grainstat::sample::{read_sample, write_sample, SizeDistribution, SizeKind};
-use grainstat::scene::{parse_scene, CohesionRadius, LawKind};
-use grainstat::simulation::{MaterialModel, Simulation};
+use grainstat::scene::parse_scene;
+use grainstat::simulation::Simulation;
 use grainstat::solver::SolverConfig;
 use grainstat::Error;
 
@@ -27,20 +30,6 @@ name = "hold"
 increments = 1
 stress = { top = 1e6, right = 1e6 }
 "#;
-
-fn sandstone() -> MaterialModel {
-    MaterialModel {
-        law: LawKind::Linear,
-        normal_stiffness: 1e6,
-        shear_modulus: 0.0,
-        poisson: 0.16,
-        friction: 0.6,
-        cohesion: 1e8,
-        cohesion_radius: CohesionRadius::Mean,
-        bonded: true,
-        fixed_rotations: false,
-    }
-}
 
 #[test]
 fn a_test_starts_from_the_prepared_equilibrium_with_walls_and_contact_history() {

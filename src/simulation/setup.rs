@@ -315,15 +315,28 @@ impl Simulation {
         }
         let walls = build_walls(scene, &grains);
         let material = MaterialModel::from_scene(scene);
+        let skin = config.skin * grains.mean_radius();
+        let contacts = initial_contacts(&material, &grains, &walls, skin);
+        Simulation::of_scene(scene, config, grains, walls, contacts)
+    }
+
+    /// The simulation of `scene` on these grains, walls and contacts: the scene's depth,
+    /// membranes and load program.
+    fn of_scene(
+        scene: &Scene,
+        config: SolverConfig,
+        grains: GrainSet,
+        walls: WallSet,
+        contacts: ContactSet,
+    ) -> Result<Simulation, Error> {
         let depth = scene
             .material
             .depth
             .unwrap_or_else(|| 2.0 * grains.mean_radius());
         let membranes = build_membranes(scene);
         let stages = build_stages(scene, &walls, &membranes);
-        let skin = config.skin * grains.mean_radius();
-        let contacts = initial_contacts(&material, &grains, &walls, skin);
         let state = State::fresh(grains, walls, contacts, membranes);
+        let material = MaterialModel::from_scene(scene);
         Ok(Simulation::from_state(
             scene.name.clone(),
             config,
@@ -425,19 +438,11 @@ impl Simulation {
         );
         contacts.sort_by_key(|c| c.pair);
 
-        let depth = scene
-            .material
-            .depth
-            .unwrap_or_else(|| 2.0 * grains.mean_radius());
-        let membranes = build_membranes(scene);
-        let stages = build_stages(scene, &walls, &membranes);
         let contacts = ContactSet {
             contacts,
             broken_bonds: Vec::new(),
         };
-        let state = State::fresh(grains, walls, contacts, membranes);
-        let mut sim =
-            Simulation::from_state(scene.name.clone(), config, material, depth, stages, state)?;
+        let mut sim = Simulation::of_scene(scene, config, grains, walls, contacts)?;
         // The responses of the committed state, for what is measured before the first step.
         sim.equilibrium_error();
         Ok(sim)

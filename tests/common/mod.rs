@@ -1,0 +1,57 @@
+//! What several test files share: running the `grainstat` binary, reading its errors, and
+//! the sandstone of table 8.
+
+#![allow(dead_code)] // each test file uses its own part
+
+use grainstat::scene::{CohesionRadius, LawKind};
+use grainstat::simulation::MaterialModel;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// Run the `grainstat` binary with `args`.
+pub fn grainstat(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_grainstat"))
+        .args(args)
+        .output()
+        .expect("grainstat runs")
+}
+
+/// What a run printed on standard error.
+pub fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+/// A run that failed on bad input: exit status 2, no panic, and every expected phrase.
+pub fn assert_input_error(out: &Output, expected: &[&str]) {
+    let err = stderr(out);
+    assert_eq!(out.status.code(), Some(2), "exit status of: {err}");
+    assert!(!err.contains("panicked"), "no panic: {err}");
+    for e in expected {
+        assert!(err.contains(e), "`{e}` in: {err}");
+    }
+}
+
+/// A small crystal scene (`samples::crystal_biaxial`) written to `dir`, written every
+/// `every` increments.
+pub fn crystal_scene(dir: &Path, every: usize) -> PathBuf {
+    let mut scene = grainstat::samples::crystal_biaxial(9, 8, 1e6, 3e6);
+    scene.output.every = every;
+    let path = dir.join("crystal.toml");
+    std::fs::write(&path, toml::to_string(&scene).unwrap()).unwrap();
+    path
+}
+
+/// Sandstone, table 8: linear contacts, `k_n` = 1 MN/m, cemented.
+pub fn sandstone() -> MaterialModel {
+    MaterialModel {
+        law: LawKind::Linear,
+        normal_stiffness: 1e6,
+        shear_modulus: 0.0,
+        poisson: 0.16,
+        friction: 0.6,
+        cohesion: 1e8,
+        cohesion_radius: CohesionRadius::Mean,
+        bonded: true,
+        fixed_rotations: false,
+    }
+}
