@@ -485,3 +485,17 @@ fn solver_files() {
         "{e}"
     );
 }
+
+#[test]
+fn every_example_scene_loads() {
+    let mut count = 0;
+    for entry in std::fs::read_dir("examples").unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "toml") {
+            grainstat::scene::load_scene(&path)
+                .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            count += 1;
+        }
+    }
+    assert!(count >= 5, "{count} example scenes");
+}
