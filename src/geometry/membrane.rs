@@ -55,12 +55,16 @@ pub struct Chain {
 impl Chain {
     /// Consecutive grain pairs of the chain.
     pub fn links(&self) -> Vec<(usize, usize)> {
-        let g = &self.grains;
-        let mut links: Vec<(usize, usize)> = g.windows(2).map(|w| (w[0], w[1])).collect();
-        if self.closed && g.len() > 2 {
-            links.push((g[g.len() - 1], g[0]));
-        }
-        links
+        self.segments()
+            .map(|(k, l)| (self.grains[k], self.grains[l]))
+            .collect()
+    }
+
+    /// Consecutive places `(k, k + 1)` in the chain, and the closing one of a closed chain.
+    fn segments(&self) -> impl Iterator<Item = (usize, usize)> {
+        let n = self.grains.len();
+        let closing = (self.closed && n > 2).then_some((n - 1, 0));
+        (1..n).map(|k| (k - 1, k)).chain(closing)
     }
 }
 
@@ -144,14 +148,10 @@ impl Chain {
         let mut loads: Vec<(usize, [f64; 2])> =
             self.grains.iter().map(|&g| (g, [0.0; 2])).collect();
         let count = loads.len();
-        for k in 0..count {
-            let next = (k + 1) % count;
-            if next == 0 && !(self.closed && count > 2) {
-                break;
-            }
+        for (k, next) in self.segments() {
             let f = segment_force(
-                position[loads[k].0],
-                position[loads[next].0],
+                position[self.grains[k]],
+                position[self.grains[next]],
                 pressure_depth,
             );
             for at in [k, next] {
@@ -267,7 +267,7 @@ fn wrap(angle: f64) -> f64 {
 
 /// The force of one membrane segment from `a` to `b` on each of its ends, with the sample on
 /// the left: `p D / 2` times the segment turned 90 degrees anticlockwise.
-pub fn segment_force(a: [f64; 2], b: [f64; 2], pressure_depth: f64) -> [f64; 2] {
+fn segment_force(a: [f64; 2], b: [f64; 2], pressure_depth: f64) -> [f64; 2] {
     let e = [b[0] - a[0], b[1] - a[1]];
     [-0.5 * pressure_depth * e[1], 0.5 * pressure_depth * e[0]]
 }

@@ -49,8 +49,8 @@ impl LoadStep {
 /// A spring on one grain along `direction`, holding a rigid-body motion of the sample that no
 /// wall holds: its rotation inside frictionless rings and plugs, and also its translations
 /// when membranes alone bound it. The loads on such a sample balance in those motions, so in
-/// equilibrium the anchors, three at most and statically determinate, carry nothing: they
-/// make the system regular without changing the answer.
+/// equilibrium the anchors, three at most and statically determinate, carry only what the
+/// residual tolerance leaves: they make the system regular without changing the answer.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Anchor {
     /// The grain held.

@@ -288,8 +288,7 @@ impl Simulation {
         let mut u = vec![0.0; self.dofs.len];
         let mut total = TopologyChange::default();
         // The membranes start on the grains that are outermost in the committed state.
-        let committed = self.state.grains.position.clone();
-        self.refresh_chains(&committed)?;
+        self.refresh_chains(false)?;
         // Passes that end on a Newton solve count against the chatter cap; those that stop
         // where a gap closed are bounded by the pairs that can close.
         let (mut passes, mut closings) = (0, 0);
@@ -508,8 +507,7 @@ impl Simulation {
         self.state.contacts.contacts = merged;
         self.index_pairs()?;
         // Membranes: on the grains that are outermost now.
-        let current = self.q.position.clone();
-        change.chains = self.refresh_chains(&current)?;
+        change.chains = self.refresh_chains(true)?;
         self.stats.counters.contacts_made += change.made;
         self.stats.counters.contacts_lost += change.lost;
         self.stats.counters.bonds_broken += change.broken;
@@ -550,12 +548,18 @@ impl Simulation {
         self.analyse_pattern()
     }
 
-    /// Each membrane's chain on the grains at `position`; a chain linking grains the pattern
-    /// does not link yet needs a new pattern. Returns how many chains changed.
-    fn refresh_chains(&mut self, position: &[[f64; 2]]) -> Result<usize, NumericError> {
+    /// Each membrane's chain on the grains where they are at the current iterate (or, when
+    /// not `at_iterate`, in the committed state); a chain linking grains the pattern does not
+    /// link yet needs a new pattern. Returns how many chains changed.
+    fn refresh_chains(&mut self, at_iterate: bool) -> Result<usize, NumericError> {
         if self.state.membranes.is_empty() {
             return Ok(0);
         }
+        let position = if at_iterate {
+            &self.q.position
+        } else {
+            &self.state.grains.position
+        };
         let chains: Vec<Chain> = self
             .state
             .membranes
