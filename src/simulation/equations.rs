@@ -6,6 +6,7 @@ use crate::contact::{kinematics, Configuration, Contact, ContactLaw, Kinematics,
 use crate::geometry::{
     extent_along, Chain, FriendSet, GrainSet, Membrane, MembraneShape, Pair, Side, WallSet,
 };
+use crate::simulation::MaterialModel;
 use crate::solver::stats::{secs, StageTimers};
 use crate::solver::Equations;
 use crate::NumericError;
@@ -105,10 +106,13 @@ pub struct IncrementEquations<'a> {
     pub grains: &'a GrainSet,
     /// Committed walls.
     pub walls: &'a WallSet,
-    /// Contacts: history read, trial response written.
-    pub contacts: &'a mut [Contact],
+    /// Contacts: history read, trial response written; gaps that close within a pass
+    /// join them.
+    pub contacts: &'a mut Vec<Contact>,
     /// Friend-pair index of each contact (its block in the pattern), increasing.
-    pub pair_index: &'a [usize],
+    pub pair_index: &'a mut Vec<usize>,
+    /// The material, for the contacts made.
+    pub material: &'a MaterialModel,
     /// The friends lists: pairs not in contact are watched for gaps closing within a step, and
     /// no step takes a grain so far that a pair outside them could touch.
     pub friends: &'a FriendSet,
@@ -117,7 +121,8 @@ pub struct IncrementEquations<'a> {
     /// Membranes (their pressures come from the step).
     pub membranes: &'a [Membrane],
     /// Each membrane's chain for this increment.
-    pub chains: &'a [Chain],
+    /// Each membrane's chain: found anew where a step closed a gap, as the grains roll.
+    pub chains: &'a mut Vec<Chain>,
     /// Springs on the rigid-body motions no wall holds.
     pub anchors: &'a [Anchor],
     /// Unknowns.
@@ -317,8 +322,16 @@ impl IncrementEquations<'_> {
     }
 }
 
-/// Overlap, in mean radii, at which a step that closes a gap stops: above the chatter band
-/// of the topology update, so the contact is made.
+/// Overlap, in mean radii, within which a contact keeps its state (made or lost).
+pub const CHATTER: f64 = 1e-12;
+
+/// Overlap a step may press a closing gap into, as a share of the mean overlap of the
+/// contacts: a new contact then starts with a force well below the mean (a tenth for a linear
+/// law, 3% for Hertz), while the many near contacts of a dense packing close within one step.
+const CLOSING_DEPTH: f64 = 0.1;
+
+/// Smallest closing overlap, in mean radii: above the chatter band of the topology update, so
+/// the contact is made.
 const CLOSING_OVERLAP: f64 = 1e-6;
 
 /// Share of the half skin a grain may move from where the friends lists were made before a
@@ -326,11 +339,64 @@ const CLOSING_OVERLAP: f64 = 1e-6;
 const REACH: f64 = 0.9;
 
 impl Equations for IncrementEquations<'_> {
+    fn close_gaps(&mut self, u: &[f64]) -> Option<usize> {
+        let chatter = CHATTER * self.r_mean;
+        self.configure(u);
+        // The membranes follow the grains, as far as the pattern couples their new chains.
+        if !self.membranes.is_empty() {
+            let chains: Vec<Chain> = self
+                .membranes
+                .iter()
+                .map(|m| m.chain(&self.q.position, &self.grains.radius))
+                .collect();
+            let coupled = chains
+                .iter()
+                .flat_map(Chain::links)
+                .all(|(a, b)| self.pattern.links(self.dofs, a, b));
+            if !coupled {
+                return None;
+            }
+            *self.chains = chains;
+        }
+        let mut made = Vec::new();
+        let mut contact = self.pair_index.iter().peekable();
+        for (k, &pair) in self.friends.pairs.iter().enumerate() {
+            if contact.next_if(|&&c| c == k).is_some() {
+                continue;
+            }
+            let kin = kinematics(pair, self.grains, self.walls, self.q);
+            if kin.overlap > chatter {
+                let params = self.material.params(pair, self.grains, self.walls);
+                let mut c = Contact::new(pair, params, false);
+                c.shear_offset = kin.shear_increment;
+                made.push((k, c));
+            }
+        }
+        let count = made.len();
+        for (k, c) in made {
+            let at = self.pair_index.partition_point(|&p| p < k);
+            self.pair_index.insert(at, k);
+            self.contacts.insert(at, c);
+        }
+        Some(count)
+    }
+
     fn closing_fraction(&mut self, u: &[f64], du: &[f64]) -> f64 {
-        // Gaps at the start and at the end of the step; within it a gap between two grains
-        // lies below the straight line between the two (distance is convex), so stopping
-        // where that line reaches the overlap leaves at least that overlap.
-        let stop = -CLOSING_OVERLAP * self.r_mean;
+        // Overlaps of the pairs not in contact at the start and at the end of the step;
+        // within it the overlap of two grains lies above the straight line between the two
+        // (distance is convex), so stopping where that line reaches the closing depth leaves
+        // at least that overlap, and the contact is made.
+        let (sum, touching) = self
+            .contacts
+            .iter()
+            .filter(|c| c.overlap > 0.0)
+            .fold((0.0, 0usize), |(s, n), c| (s + c.overlap, n + 1));
+        let mean_overlap = if touching > 0 {
+            sum / touching as f64
+        } else {
+            0.0
+        };
+        let depth = (CLOSING_DEPTH * mean_overlap).max(CLOSING_OVERLAP * self.r_mean);
         self.configure(u);
         // No further than most of the way to where the lists go stale, by the triangle
         // inequality on each grain's move.
@@ -358,18 +424,17 @@ impl Equations for IncrementEquations<'_> {
                     kinematics(pair, self.grains, self.walls, self.q).overlap,
                 )
             })
-            .filter(|&(_, overlap)| overlap < -stop)
-            .map(|(pair, overlap)| (pair, -overlap))
+            .filter(|&(_, overlap)| overlap < depth)
             .collect();
         if apart.is_empty() {
             return fraction;
         }
         let end: Vec<f64> = u.iter().zip(du).map(|(a, b)| a + b).collect();
         self.configure(&end);
-        for (pair, gap0) in apart {
-            let gap1 = -kinematics(pair, self.grains, self.walls, self.q).overlap;
-            if gap1 < stop {
-                fraction = fraction.min((gap0 - stop) / (gap0 - gap1));
+        for (pair, overlap0) in apart {
+            let overlap1 = kinematics(pair, self.grains, self.walls, self.q).overlap;
+            if overlap1 > depth {
+                fraction = fraction.min((depth - overlap0) / (overlap1 - overlap0));
             }
         }
         fraction

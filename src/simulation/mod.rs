@@ -55,17 +55,29 @@ pub struct Simulation {
     links: Vec<(usize, usize)>,
     /// Springs on the rigid-body motions the walls leave free.
     anchors: Vec<Anchor>,
+    /// Trust radius the last Newton pass of this increment ended with.
+    trust: Option<f64>,
 }
-
-/// Overlap, in mean radii, within which a contact keeps its state (made or lost).
-const CHATTER: f64 = 1e-12;
 
 /// Share of the half skin past which the friends lists are made anew: below the share a
 /// Newton step may reach (0.9), so a step that stopped there finds new lists.
 const REACH_REBUILD: f64 = 0.8;
 
-/// Topology passes that stop where a gap closed, allowed per pass that ends on a solve.
-const CLOSINGS_PER_PASS: usize = 10;
+/// Change of a side's extent, in mean radii, that counts as a new chain: its end pieces then
+/// carry a load that differs from the one solved for by more than the tolerance allows.
+const EXTENT_CHANGE: f64 = 1e-10;
+
+/// Share of its starting residual a pass must end below, when it ran out of iterations, to
+/// go on as another pass.
+const PROGRESS: f64 = 0.5;
+
+/// Bounds of the trust radius a Newton pass starts with, in mean radii.
+const MAX_INITIAL_TRUST: f64 = 1e-2;
+const MIN_INITIAL_TRUST: f64 = 1e-6;
+
+/// Topology passes that stop for the friends lists to be made anew, allowed per pass that
+/// ends on a solve.
+const REACHES_PER_PASS: usize = 10;
 
 /// What one topology pass changed.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -140,6 +152,7 @@ impl Simulation {
             chains,
             links,
             anchors: anchors(&state.grains, &state.walls),
+            trust: None,
             values: vec![0.0; pattern.nnz()],
             pattern,
             friends,
@@ -287,15 +300,18 @@ impl Simulation {
     ) -> Result<(Vec<f64>, TopologyChange), NumericError> {
         let mut u = vec![0.0; self.dofs.len];
         let mut total = TopologyChange::default();
-        // The membranes start on the grains that are outermost in the committed state.
+        // The membranes start on the grains that are outermost in the committed state, and
+        // Newton's trust radius at the scale of the overlaps.
         self.refresh_chains(false)?;
+        self.trust = None;
         // Passes that end on a Newton solve count against the chatter cap; those that stop
-        // where a gap closed are bounded by the pairs that can close.
-        let (mut passes, mut closings) = (0, 0);
+        // for new friends lists are bounded by how far grains can travel.
+        let (mut passes, mut reaches) = (0, 0);
         while passes < self.config.max_topology_passes
-            && closings < CLOSINGS_PER_PASS * self.config.max_topology_passes
+            && reaches < REACHES_PER_PASS * self.config.max_topology_passes
         {
             let outcome = self.newton(step, &mut u)?;
+            self.trust = Some(outcome.trust);
             report.newton_iterations += outcome.iterations;
             report.residual = outcome.residual;
             if outcome.iterations > 0 {
@@ -303,26 +319,28 @@ impl Simulation {
             }
             report.topology_passes += 1;
             self.stats.counters.topology_passes += 1;
-            if outcome.closed_gap {
-                closings += 1;
+            if outcome.at_reach {
+                reaches += 1;
             } else {
                 passes += 1;
             }
             // Contacts made and lost: after convergence, and also when Newton stalls or stops
-            // where a gap closed, since a loaded grain that has lost its support cannot be in
-            // equilibrium until it meets its next neighbour.
+            // for new lists, since a loaded grain that has lost its support cannot be in
+            // equilibrium until it meets its next neighbour. Newton itself made those whose
+            // gaps its steps closed.
             let change = self.update_topology(step, &u, outcome.converged)?;
-            total.made += change.made;
+            self.stats.counters.contacts_made += outcome.contacts_made;
+            total.made += change.made + outcome.contacts_made;
             total.lost += change.lost;
             total.broken += change.broken;
             // A pass that ran out of iterations while |R| still fell goes on as another.
             let progressing = outcome
                 .history
                 .first()
-                .is_some_and(|&r0| outcome.residual < 0.1 * r0);
-            match (outcome.converged, change.any() || progressing) {
+                .is_some_and(|&r0| outcome.residual < PROGRESS * r0);
+            match (outcome.converged, change.any()) {
                 (true, false) => return Ok((u, total)),
-                (false, false) => {
+                (false, false) if !progressing && outcome.contacts_made == 0 => {
                     return Err(NumericError::NotConverged {
                         increment: self.state.increment + 1,
                         residual: outcome.residual,
@@ -347,11 +365,12 @@ impl Simulation {
             grains: &self.state.grains,
             walls: &self.state.walls,
             contacts: &mut self.state.contacts.contacts,
-            pair_index: &self.pair_index,
+            pair_index: &mut self.pair_index,
+            material: &self.material,
             friends: &self.friends,
             step,
             membranes: &self.state.membranes,
-            chains: &self.chains,
+            chains: &mut self.chains,
             anchors: &self.anchors,
             dofs: &self.dofs,
             pattern: &self.pattern,
@@ -383,7 +402,7 @@ impl Simulation {
             lambda_min: self.config.lambda_min,
             reuse_factorisation: self.material.is_linear(),
             max_step: 0.5 * self.config.skin,
-            initial_trust: 1e-2,
+            initial_trust: self.trust.unwrap_or_else(|| self.initial_trust()),
         };
         // The pattern is shared, not copied: the equations read its slots while the matrix
         // is factorised in it.
@@ -410,7 +429,27 @@ impl Simulation {
         self.stats = stats;
         self.values = values;
         self.linear = linear;
+        // Chains Newton let follow the grains: their links are in the pattern.
+        self.links = self.chains.iter().flat_map(Chain::links).collect();
         result
+    }
+
+    /// The trust radius the first Newton pass of an increment starts with, in mean radii: the
+    /// mean overlap of the contacts, so that a first step changes no contact force by much
+    /// more than the mean force, however stiff the material (at most 1e-2, at least 1e-6).
+    /// Later passes go on with the radius the last one ended with.
+    fn initial_trust(&self) -> f64 {
+        let (sum, touching) = self
+            .state
+            .contacts
+            .contacts
+            .iter()
+            .filter(|c| c.overlap > 0.0)
+            .fold((0.0, 0usize), |(s, n), c| (s + c.overlap, n + 1));
+        if touching == 0 {
+            return MAX_INITIAL_TRUST;
+        }
+        (sum / touching as f64 / self.r_mean).clamp(MIN_INITIAL_TRUST, MAX_INITIAL_TRUST)
     }
 
     /// After Newton converged: break overloaded bonds, drop contacts that opened, rebuild the
@@ -434,7 +473,7 @@ impl Simulation {
         // Contacts are lost below -chatter and made above +chatter: at rest, overlaps at the
         // round-off level would otherwise flip contacts on and off from pass to pass. A
         // linear contact kept in between carries at most k * chatter, a Hertz one nothing.
-        let chatter = CHATTER * self.r_mean;
+        let chatter = equations::CHATTER * self.r_mean;
         let set = &mut self.state.contacts;
         for c in set.contacts.iter_mut().filter(|_| converged) {
             if let Some(mode) = c.bond_failure() {
@@ -566,10 +605,15 @@ impl Simulation {
             .iter()
             .map(|m| m.chain(position, &self.state.grains.radius))
             .collect();
+        // A chain changes with its grains, or with the sample's extent along a side, which
+        // sets the load of its end pieces.
+        let moved = |a: [f64; 2], b: [f64; 2]| {
+            (a[0] - b[0]).abs().max((a[1] - b[1]).abs()) > EXTENT_CHANGE * self.r_mean
+        };
         let changed = chains
             .iter()
             .zip(&self.chains)
-            .filter(|(new, old)| new.grains != old.grains)
+            .filter(|(new, old)| new.grains != old.grains || moved(new.extent, old.extent))
             .count();
         self.chains = chains;
         let links: Vec<(usize, usize)> = self.chains.iter().flat_map(Chain::links).collect();

@@ -42,8 +42,14 @@ pub trait Equations {
     fn set_far(&mut self, far: bool);
 
     /// The fraction of the step `du` from `u` after which the first pair of surfaces that is
-    /// apart now has just closed (1 when none closes within the step).
+    /// apart now has closed to a small overlap (1 when none closes that far within the step).
     fn closing_fraction(&mut self, u: &[f64], du: &[f64]) -> f64;
+
+    /// After a step that stopped where a gap closed: make a contact of every pair that is
+    /// apart in the contact set but overlaps at `u`, and let the boundaries follow. Returns how
+    /// many contacts were made, or `None` when the topology must be rebuilt before Newton can
+    /// go on (nothing then changed).
+    fn close_gaps(&mut self, u: &[f64]) -> Option<usize>;
 }
 
 /// Settings of one Newton solve.
@@ -87,9 +93,13 @@ pub struct NewtonOutcome {
     /// Converged with the residual at its round-off floor: no step reduced it, and the Newton
     /// step was already below the displacement tolerance.
     pub at_roundoff: bool,
-    /// Stopped where a step first closed a gap between two surfaces: the contact must be made
-    /// before Newton goes on, or the grains would pass through each other.
-    pub closed_gap: bool,
+    /// Stopped where a step would take a grain out of the friends lists' reach, or closed a
+    /// gap that the topology must be rebuilt for: that is done before Newton goes on.
+    pub at_reach: bool,
+    /// Contacts made where steps closed gaps.
+    pub contacts_made: usize,
+    /// Trust radius at the end, for the next pass of the same increment to start from.
+    pub trust: f64,
 }
 
 /// The matrix of the Newton systems: a fixed pattern, its values, and its diagonal slots.
@@ -170,6 +180,7 @@ pub fn solve(
         eq.set_far(rel > FAR);
 
         let mut accepted = false;
+        let mut closed = false;
         let merit_before = merit;
         // Whether the accepted step was held back by a trust radius still growing: slow
         // then, but not stalled.
@@ -219,16 +230,21 @@ pub fn solve(
                 du.iter_mut().for_each(|d| *d *= shrink);
             }
             // A step that closes a gap stops where it closes: that much of the step is taken
-            // whatever the residual does, and the contact is made before Newton goes on.
+            // whatever the residual does, and the contact is made before Newton goes on, so
+            // grains do not pass through each other. A step that would leave the lists' reach
+            // stops there too, and the pass ends for them to be made anew.
             let fraction = eq.closing_fraction(u, &du);
             if fraction < 1.0 {
                 for k in 0..n {
                     u[k] += fraction * du[k];
                 }
+                let made = eq.close_gaps(u).unwrap_or(0);
+                out.contacts_made += made;
                 eq.evaluate(u, &mut residual, Some(values))?;
-                (rel, worst, _) = eq.residual_norm(&residual);
+                (rel, worst, merit) = eq.residual_norm(&residual);
                 last_step = fraction * eq.step_norm(&du);
-                out.closed_gap = true;
+                closed = made > 0;
+                out.at_reach = !closed;
                 break;
             }
             // Line search on |R|_2: halve the step while it does not decrease enough.
@@ -290,9 +306,15 @@ pub fn solve(
             out.converged = true;
             break;
         }
-        if out.closed_gap {
+        if out.at_reach {
             out.history.push(rel);
             break;
+        }
+        if closed {
+            // New contacts: a new tangent, and the stall count starts again.
+            out.history.push(rel);
+            (chord, slow) = (false, 0);
+            continue;
         }
         if !accepted {
             break;
@@ -321,13 +343,14 @@ pub fn solve(
         out.history.push(rel);
     }
     if !out.converged
-        && !out.closed_gap
+        && !out.at_reach
         && rel <= settings.tolerance
         && last_step <= settings.displacement_tolerance
     {
         out.converged = true;
     }
     out.residual = rel;
+    out.trust = trust;
     out.step = last_step;
     out.worst_grain = worst;
     Ok(out)
