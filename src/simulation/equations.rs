@@ -125,6 +125,11 @@ pub struct IncrementEquations<'a> {
     pub chains: &'a mut Vec<Chain>,
     /// Springs on the rigid-body motions no wall holds.
     pub anchors: &'a [Anchor],
+    /// Pairs whose contact opened in tension earlier in this increment, sorted. Made again,
+    /// such a contact carries nothing while apart, but keeps its stiffness in the tangent: an
+    /// equilibrium that needs it to pull then has it just touching, where a contact that
+    /// pulled would open and close again from pass to pass.
+    pub reopened: &'a [Pair],
     /// Unknowns.
     pub dofs: &'a DofMap,
     /// Pattern and slot maps.
@@ -203,6 +208,9 @@ impl IncrementEquations<'_> {
                 c.shear_increment,
                 self.slip_tangent,
             );
+            if c.overlap < 0.0 && !c.bonded && self.reopened.binary_search(&c.pair).is_ok() {
+                (c.response.normal_force, c.response.shear_force) = (0.0, 0.0);
+            }
             let scale = self.f_ref.max(self.load_scale);
             if self.far && c.response.normal_force < 1e-3 * scale {
                 // Far from the answer, a contact that carries (almost) nothing yet gets the

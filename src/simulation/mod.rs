@@ -11,7 +11,7 @@ use crate::assembly::{DofMap, Pattern};
 use crate::contact::{
     kinematics, BrokenBond, Configuration, Contact, ContactLaw, ContactSet, Kinematics,
 };
-use crate::geometry::{Chain, FriendSet, GrainSet, WallControl, WallSet};
+use crate::geometry::{Chain, FriendSet, GrainSet, Pair, WallControl, WallSet};
 use crate::measure::{measure, Measurements, MembraneBoundary};
 use crate::solver::newton::{self, NewtonSettings, SystemMatrix};
 use crate::solver::stats::{secs, StageTimers};
@@ -57,6 +57,9 @@ pub struct Simulation {
     anchors: Vec<Anchor>,
     /// Trust radius the last Newton pass of this increment ended with.
     trust: Option<f64>,
+    /// Pairs whose contact opened in this increment, sorted: made again, they push but do not
+    /// pull (see [`IncrementEquations::reopened`]).
+    reopened: Vec<Pair>,
 }
 
 /// Share of the half skin past which the friends lists are made anew: below the share a
@@ -153,6 +156,7 @@ impl Simulation {
             links,
             anchors: anchors(&state.grains, &state.walls),
             trust: None,
+            reopened: Vec::new(),
             values: vec![0.0; pattern.nnz()],
             pattern,
             friends,
@@ -304,6 +308,7 @@ impl Simulation {
         // Newton's trust radius at the scale of the overlaps.
         self.refresh_chains(false)?;
         self.trust = None;
+        self.reopened.clear();
         // Passes that end on a Newton solve count against the chatter cap; those that stop
         // for new friends lists are bounded by how far grains can travel.
         let (mut passes, mut reaches) = (0, 0);
@@ -372,6 +377,7 @@ impl Simulation {
             membranes: &self.state.membranes,
             chains: &mut self.chains,
             anchors: &self.anchors,
+            reopened: &self.reopened,
             dofs: &self.dofs,
             pattern: &self.pattern,
             law: self.law.as_ref(),
@@ -488,8 +494,16 @@ impl Simulation {
             }
         }
         let before = set.contacts.len();
-        set.contacts
-            .retain(|c| !converged || c.bonded || c.overlap >= -chatter);
+        let reopened = &mut self.reopened;
+        set.contacts.retain(|c| {
+            let kept = !converged || c.bonded || c.overlap >= -chatter;
+            if !kept {
+                if let Err(at) = reopened.binary_search(&c.pair) {
+                    reopened.insert(at, c.pair);
+                }
+            }
+            kept
+        });
         change.lost = before - set.contacts.len();
 
         // Friends lists: rebuilt around the current positions once anything moved half the skin.
