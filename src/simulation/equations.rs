@@ -2,7 +2,9 @@
 //! unknown, and the tangent `K = -dR/du`, assembled into the fixed pattern.
 
 use crate::assembly::{contact_block, DofMap, Pattern};
-use crate::contact::{kinematics, Configuration, Contact, ContactLaw, Kinematics, SlipTangent};
+use crate::contact::{
+    kinematics, Configuration, Contact, ContactLaw, ContactSet, Kinematics, SlipTangent,
+};
 use crate::geometry::{
     extent_along, Chain, FriendSet, GrainSet, Membrane, MembraneShape, Pair, Side, WallSet,
 };
@@ -394,16 +396,7 @@ impl Equations for IncrementEquations<'_> {
         // within it the overlap of two grains lies above the straight line between the two
         // (distance is convex), so stopping where that line reaches the closing depth leaves
         // at least that overlap, and the contact is made.
-        let (sum, touching) = self
-            .contacts
-            .iter()
-            .filter(|c| c.overlap > 0.0)
-            .fold((0.0, 0usize), |(s, n), c| (s + c.overlap, n + 1));
-        let mean_overlap = if touching > 0 {
-            sum / touching as f64
-        } else {
-            0.0
-        };
+        let mean_overlap = ContactSet::mean_overlap(self.contacts).unwrap_or(0.0);
         let depth = (CLOSING_DEPTH * mean_overlap).max(CLOSING_OVERLAP * self.r_mean);
         self.configure(u);
         // No further than most of the way to where the lists go stale, by the triangle

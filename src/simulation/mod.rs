@@ -445,17 +445,9 @@ impl Simulation {
     /// more than the mean force, however stiff the material (at most 1e-2, at least 1e-6).
     /// Later passes go on with the radius the last one ended with.
     fn initial_trust(&self) -> f64 {
-        let (sum, touching) = self
-            .state
-            .contacts
-            .contacts
-            .iter()
-            .filter(|c| c.overlap > 0.0)
-            .fold((0.0, 0usize), |(s, n), c| (s + c.overlap, n + 1));
-        if touching == 0 {
-            return MAX_INITIAL_TRUST;
-        }
-        (sum / touching as f64 / self.r_mean).clamp(MIN_INITIAL_TRUST, MAX_INITIAL_TRUST)
+        ContactSet::mean_overlap(&self.state.contacts.contacts).map_or(MAX_INITIAL_TRUST, |d| {
+            (d / self.r_mean).clamp(MIN_INITIAL_TRUST, MAX_INITIAL_TRUST)
+        })
     }
 
     /// After Newton converged: break overloaded bonds, drop contacts that opened, rebuild the
