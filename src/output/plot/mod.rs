@@ -6,6 +6,7 @@
 mod charts;
 mod grains;
 mod radar;
+mod study;
 mod style;
 
 use std::path::{Path, PathBuf};
@@ -21,6 +22,7 @@ use crate::Error;
 use charts::{LineChart, Series};
 use grains::{Field, SamplePicture};
 use radar::{Fabric, Radar, RadarSeries, BINS};
+use study::{ErrorChart, ErrorSeries};
 use style::{load_font, max_abs, save, si_unit, PALETTE};
 
 /// Where the pictures of `result` go unless told: `NAME-plots/` beside `NAME.h5`.
@@ -274,4 +276,42 @@ fn radar_plots(
         series,
     };
     (orientation, forces)
+}
+
+/// The study's picture, `study.svg` and `study.png` in `dir`: the largest macro stress error
+/// of each run against its CPU time, one line per strategy and way of stopping.
+pub fn plot_study(
+    dir: &Path,
+    scene: &str,
+    rows: &[crate::study::StudyRow],
+) -> Result<Vec<PathBuf>, Error> {
+    load_font()?;
+    let families = [
+        ("newton", "tolerance", "global Newton, by tolerance"),
+        ("relaxation", "n_i", "relaxation, n_i sweeps per increment"),
+        ("relaxation", "tolerance", "relaxation, to a tolerance"),
+    ];
+    let series = families
+        .iter()
+        .zip(PALETTE)
+        .map(|(&(solver, setting, label), colour)| ErrorSeries {
+            label: label.into(),
+            points: rows
+                .iter()
+                .filter(|r| r.trial.solver == solver && r.trial.setting.starts_with(setting))
+                .filter_map(|r| {
+                    r.worst()
+                        .map(|w| (r.track.cpu, w.macro_stress, r.trial.setting.clone()))
+                })
+                .collect(),
+            colour,
+        })
+        .filter(|s| !s.points.is_empty())
+        .collect();
+    let chart = ErrorChart {
+        title: format!("{scene}: macro stress error against CPU time"),
+        y_label: "largest macro stress error over the increments".into(),
+        series,
+    };
+    save(&chart, dir, "study")
 }
