@@ -167,5 +167,8 @@ fn the_study_writes_its_table_and_plot_and_effort_buys_accuracy() {
         "{csv}"
     );
     let md = std::fs::read_to_string(out.join("study.md")).unwrap();
-    assert!(md.contains("CPU time to a macro stress error of"), "{md}");
+    assert!(
+        md.contains("CPU time of the whole run to a macro stress error"),
+        "{md}"
+    );
 }

@@ -181,14 +181,14 @@ fn solve_block(eq: &dyn BlockEquations, s: &BlockSystem) -> [f64; 3] {
         }
         let mut a = stiffness;
         let mut b = s.residual;
-        for k in 0..n {
-            a[k][k] += 1e-6 * largest * unit(k);
+        for (k, row) in a.iter_mut().enumerate().take(n) {
+            row[k] += 1e-6 * largest * unit(k);
         }
         let solved = gauss(&mut a, &mut b, n, &mut du);
         let descent: f64 = (0..n).map(|k| du[k] * s.residual[k]).sum();
         if !(solved && descent > 0.0 && du.iter().all(|d| d.is_finite())) {
-            for k in 0..n {
-                du[k] = s.residual[k] / (largest * unit(k));
+            for (k, d) in du.iter_mut().enumerate().take(n) {
+                *d = s.residual[k] / (largest * unit(k));
             }
         }
         let mut again = false;
@@ -197,9 +197,9 @@ fn solve_block(eq: &dyn BlockEquations, s: &BlockSystem) -> [f64; 3] {
             if !*back && slip.sense * ds < 0.0 {
                 *back = true;
                 again = true;
-                for i in 0..n {
-                    for j in 0..n {
-                        stiffness[i][j] += slip.stiffness * slip.shear[i] * slip.shear[j];
+                for (row, si) in stiffness.iter_mut().zip(slip.shear).take(n) {
+                    for (k, sj) in row.iter_mut().zip(slip.shear).take(n) {
+                        *k += slip.stiffness * si * sj;
                     }
                 }
             }
@@ -224,8 +224,9 @@ fn gauss(a: &mut [[f64; 3]; 3], b: &mut [f64; 3], n: usize, x: &mut [f64; 3]) ->
         b.swap(col, pivot);
         for row in col + 1..n {
             let f = a[row][col] / a[col][col];
-            for k in col..n {
-                a[row][k] -= f * a[col][k];
+            let pivot_row = a[col];
+            for (k, p) in a[row].iter_mut().zip(pivot_row).take(n).skip(col) {
+                *k -= f * p;
             }
             b[row] -= f * b[col];
         }
