@@ -140,8 +140,8 @@ fn the_study_writes_its_table_and_plot_and_effort_buys_accuracy() {
         "study.csv",
         "study-increments.csv",
         "study.md",
-        "study.svg",
         "study.png",
+        "study-increment-1.png",
     ] {
         assert!(out.join(name).exists(), "{name} written");
     }

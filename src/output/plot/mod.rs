@@ -278,8 +278,10 @@ fn radar_plots(
     (orientation, forces)
 }
 
-/// The study's picture, `study.svg` and `study.png` in `dir`: the largest macro stress error
-/// of each run against its CPU time, one line per strategy and way of stopping.
+/// The study's pictures in `dir`: the largest macro stress error of each run over its
+/// increments (`study.svg`, `.png`), and its error in the first increment, where every run
+/// starts from the same state (`study-increment-1.svg`, `.png`), against the run's CPU time;
+/// one line per strategy and way of stopping.
 pub fn plot_study(
     dir: &Path,
     scene: &str,
@@ -291,27 +293,40 @@ pub fn plot_study(
         ("relaxation", "n_i", "relaxation, n_i sweeps per increment"),
         ("relaxation", "tolerance", "relaxation, to a tolerance"),
     ];
-    let series = families
-        .iter()
-        .zip(PALETTE)
-        .map(|(&(solver, setting, label), colour)| ErrorSeries {
-            label: label.into(),
-            points: rows
-                .iter()
-                .filter(|r| r.trial.solver == solver && r.trial.setting.starts_with(setting))
-                .filter_map(|r| {
-                    r.worst()
-                        .map(|w| (r.track.cpu, w.macro_stress, r.trial.setting.clone()))
-                })
-                .collect(),
-            colour,
-        })
-        .filter(|s| !s.points.is_empty())
-        .collect();
-    let chart = ErrorChart {
-        title: format!("{scene}: macro stress error against CPU time"),
-        y_label: "largest macro stress error over the increments".into(),
-        series,
+    let chart = |first: bool| ErrorChart {
+        title: if first {
+            format!("{scene}: macro stress error in increment 1 against CPU time")
+        } else {
+            format!("{scene}: macro stress error against CPU time")
+        },
+        y_label: if first {
+            "macro stress error in increment 1".into()
+        } else {
+            "largest macro stress error over the increments".into()
+        },
+        series: families
+            .iter()
+            .zip(PALETTE)
+            .map(|(&(solver, setting, label), colour)| ErrorSeries {
+                label: label.into(),
+                points: rows
+                    .iter()
+                    .filter(|r| r.trial.solver == solver && r.trial.setting.starts_with(setting))
+                    .filter_map(|r| {
+                        let error = if first {
+                            r.errors.first().map(|e| e.macro_stress)
+                        } else {
+                            r.worst().map(|w| w.macro_stress)
+                        };
+                        error.map(|e| (r.track.cpu, e, r.trial.setting.clone()))
+                    })
+                    .collect(),
+                colour,
+            })
+            .filter(|s| !s.points.is_empty())
+            .collect(),
     };
-    save(&chart, dir, "study")
+    let mut files = save(&chart(false), dir, "study")?;
+    files.extend(save(&chart(true), dir, "study-increment-1")?);
+    Ok(files)
 }
