@@ -11,7 +11,7 @@ use crate::contact::SlipTangent;
 use crate::geometry::{Circle, GrainSet, Side, Wall, WallControl, WallSet};
 use crate::measure::Measurements;
 use crate::simulation::{initial_contacts, MaterialModel, Simulation, StageProgram};
-use crate::solver::{LinearKind, SolverConfig};
+use crate::solver::{LinearKind, SolverConfig, Strategy};
 use crate::state::State;
 use crate::{Error, InputError};
 
@@ -222,11 +222,13 @@ pub fn prepare(
         pressure: Vec::new(),
     };
     let state = State::fresh(grains, walls, contacts, Vec::new());
-    // The consistent tangent: near rest many contacts sit on the Coulomb limit, where the
-    // elasto-plastic one converges only linearly; this solve is made once per sample. The
+    // Newton (whatever strategy the settings name) with the consistent tangent: near rest
+    // many contacts sit on the Coulomb limit, where the elasto-plastic one converges only
+    // linearly; this solve is made once per sample. The
     // load is held, so halving the step would not help. Gaps left by growth close one
     // topology pass at a time, and there are more of them the larger the sample.
     let exact = SolverConfig {
+        strategy: Strategy::Newton,
         linear: LinearKind::Lu,
         slip_tangent: SlipTangent::Consistent,
         max_cuts: 0,
