@@ -10,7 +10,7 @@ use grainstat::sample::{write_csv, write_sample};
 use grainstat::scene::{load_scene, load_solver, parse_scene, parse_solver};
 use grainstat::simulation::MaterialModel;
 use grainstat::simulation::Simulation;
-use grainstat::solver::SolverConfig;
+use grainstat::solver::{SolverConfig, Strategy};
 use grainstat::state::IncrementReport;
 use grainstat::study::{compare, markdown, track, write_tables, StudyPlan, StudyRow, Track};
 use grainstat::{Error, InputError};
@@ -463,7 +463,7 @@ fn summary(sim: &Simulation) -> String {
     format!(
         "time [s]: detection {:.3}, return map {:.3}, assembly {:.3}, symbolic {:.3}, \
          factorisation {:.3}, solve {:.3}, topology {:.3}, output {:.3}\n\
-         counts: {} increments, {} Newton iterations, {} symbolic and {} numeric \
+         counts: {} increments, {} {}, {} symbolic and {} numeric \
          factorisations ({} steps on a reused one), {} solves, {} topology passes, \
          {} friends rebuilds, contacts +{} -{}, {} bonds broken, {} cuts",
         t.detection,
@@ -476,6 +476,10 @@ fn summary(sim: &Simulation) -> String {
         t.output,
         c.increments,
         c.newton_iterations,
+        match sim.config.strategy {
+            Strategy::Newton => "Newton iterations",
+            Strategy::Relaxation => "sweeps",
+        },
         c.symbolic_factorisations,
         c.numeric_factorisations,
         c.factorisations_reused,
