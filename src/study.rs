@@ -8,7 +8,7 @@
 use crate::measure::Measurements;
 use crate::simulation::Simulation;
 use crate::solver::{SolverConfig, Strategy};
-use crate::Error;
+use crate::{Error, NumericError};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -115,7 +115,7 @@ pub struct Track {
     /// Mean grain radius (m).
     pub r_mean: f64,
     /// Why the run stopped early, if it did.
-    pub failure: Option<String>,
+    pub failure: Option<NumericError>,
 }
 
 /// CPU seconds used by this process so far (user and system, all threads).
@@ -144,7 +144,7 @@ pub fn track(sim: &mut Simulation, mut on_increment: impl FnMut(usize)) -> Track
         let report = match result {
             Ok(report) => report,
             Err(err) => {
-                out.failure = Some(err.to_string());
+                out.failure = Some(err);
                 break;
             }
         };
@@ -278,7 +278,7 @@ pub fn write_tables(
     for row in rows {
         let w = row.worst().unwrap_or_default();
         let status = match &row.track.failure {
-            Some(f) => format!("failed: {}", f.replace(',', ";")),
+            Some(f) => format!("failed: {}", f.to_string().replace(',', ";")),
             None => "ok".into(),
         };
         let t = &row.track;
@@ -376,7 +376,10 @@ pub fn markdown(scene: &str, reference: &Track, rows: &[StudyRow]) -> String {
                     t.cpu,
                     t.iterations,
                     row.errors.len(),
-                    t.failure.as_deref().unwrap_or("")
+                    t.failure
+                        .as_ref()
+                        .map(|f| f.to_string())
+                        .unwrap_or_default()
                 );
             }
         }
