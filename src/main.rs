@@ -103,15 +103,16 @@ enum Command {
     /// Speed against error: run the scene with the global solver over a range of tolerances
     /// and with the grain-by-grain relaxation over a range of sweeps per increment (n_i) and
     /// of tolerances, compare every increment with a reference run near machine precision,
-    /// and write the table (study.csv, study-increments.csv, study.md) and the plot of error
-    /// against CPU time (study.svg, study.png).
+    /// and write the table (study.csv, study-increments.csv, study.md) and the plots of error
+    /// against CPU time, over the run and in the first increment (study.png,
+    /// study-increment-1.png, and as SVG).
     #[command(
         after_help = "Example:\n  grainstat study examples/study-sand-biaxial.toml -o results/study-sand"
     )]
     Study {
         /// Scene file (TOML).
         scene: PathBuf,
-        /// Directory for the tables and the plot; default: results/study-NAME.
+        /// Directory for the tables and the plots; default: results/study-NAME.
         #[arg(short, long, value_name = "DIR")]
         output: Option<PathBuf>,
         /// Settings of the reference run; default: solvers/study-reference.toml.
