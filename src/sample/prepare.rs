@@ -222,12 +222,12 @@ pub fn prepare(
         pressure: Vec::new(),
     };
     let state = State::fresh(grains, walls, contacts, Vec::new());
-    // Newton (whatever strategy the settings name) with the consistent tangent: near rest
-    // many contacts sit on the Coulomb limit, where the elasto-plastic one converges only
-    // linearly; this solve is made once per sample. The
+    // The consistent tangent: near rest many contacts sit on the Coulomb limit, where the
+    // elasto-plastic one converges only linearly; this solve is made once per sample. The
     // load is held, so halving the step would not help. Gaps left by growth close one
     // topology pass at a time, and there are more of them the larger the sample.
     let exact = SolverConfig {
+        // Newton, whatever strategy the settings name: 20 sweeps would leave it unbalanced.
         strategy: Strategy::Newton,
         linear: LinearKind::Lu,
         slip_tangent: SlipTangent::Consistent,
