@@ -39,6 +39,7 @@ pub mod scene;
 pub mod simulation;
 pub mod solver;
 pub mod state;
+pub mod study;
 
 pub use error::{Error, InputError, NumericError, Result};
 

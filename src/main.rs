@@ -2,16 +2,17 @@
 //! file.
 
 use clap::{Parser, Subcommand};
-use grainstat::output::plot::{default_dir, plot};
+use grainstat::output::plot::{default_dir, plot, plot_study};
 use grainstat::output::{info, ResultFile};
-use grainstat::run::{header, initial_report, run_to_end};
+use grainstat::run::{header, initial_report, run_to_end, start};
 use grainstat::sample::prepare::{prepare, PrepareSpec};
 use grainstat::sample::{write_csv, write_sample};
-use grainstat::scene::{build_grains, load_scene, load_solver, parse_scene};
+use grainstat::scene::{load_scene, load_solver, parse_scene, parse_solver};
 use grainstat::simulation::MaterialModel;
 use grainstat::simulation::Simulation;
-use grainstat::solver::SolverConfig;
+use grainstat::solver::{SolverConfig, Strategy};
 use grainstat::state::IncrementReport;
+use grainstat::study::{compare, markdown, track, write_tables, StudyPlan, StudyRow, Track};
 use grainstat::{Error, InputError};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
@@ -99,6 +100,46 @@ enum Command {
         #[arg(long, value_name = "N")]
         increment: Option<usize>,
     },
+    /// Speed against error: run the scene with the global solver over a range of tolerances
+    /// and with the grain-by-grain relaxation over a range of sweeps per increment (n_i) and
+    /// of tolerances, compare every increment with a reference run near machine precision,
+    /// and write the table (study.csv, study-increments.csv, study.md) and the plots of error
+    /// against CPU time, over the run and in the first increment (study.png,
+    /// study-increment-1.png, and as SVG).
+    #[command(
+        after_help = "Example:\n  grainstat study examples/study-sand-biaxial.toml -o results/study-sand"
+    )]
+    Study {
+        /// Scene file (TOML).
+        scene: PathBuf,
+        /// Directory for the tables and the plots; default: results/study-NAME.
+        #[arg(short, long, value_name = "DIR")]
+        output: Option<PathBuf>,
+        /// Settings of the reference run; default: solvers/study-reference.toml.
+        #[arg(long, value_name = "SOLVER.toml")]
+        reference: Option<PathBuf>,
+        /// Settings of the global solver's runs; default: solvers/newton-cholesky.toml.
+        #[arg(long, value_name = "SOLVER.toml")]
+        newton: Option<PathBuf>,
+        /// Settings of the relaxation runs; default: solvers/relaxation.toml.
+        #[arg(long, value_name = "SOLVER.toml")]
+        relaxation: Option<PathBuf>,
+        /// Tolerances of the global solver's runs.
+        #[arg(long, value_delimiter = ',', default_values_t = vec![1e-2, 1e-4, 1e-6, 1e-8, 1e-10])]
+        tolerances: Vec<f64>,
+        /// Sweeps per increment of the relaxation runs that make just that many.
+        #[arg(long, value_delimiter = ',', default_values_t = vec![5, 20, 100, 500, 2000])]
+        sweeps: Vec<usize>,
+        /// Tolerances of the relaxation runs that sweep until they meet them.
+        #[arg(long, value_delimiter = ',', default_values_t = vec![1e-3, 1e-5, 1e-7])]
+        relaxation_tolerances: Vec<f64>,
+        /// Sweeps per increment allowed to those.
+        #[arg(long, default_value_t = 20000)]
+        max_sweeps: usize,
+        /// No progress lines.
+        #[arg(long)]
+        quiet: bool,
+    },
     /// Summarise a result file: scene, increments written, last stresses, timers, counters.
     #[command(after_help = "Example:\n  grainstat info results/crystal-biaxial.h5")]
     Info {
@@ -143,6 +184,27 @@ fn main() -> ExitCode {
                 println!("{}", f.display());
             }
         }),
+        Command::Study {
+            scene,
+            output,
+            reference,
+            newton,
+            relaxation,
+            tolerances,
+            sweeps,
+            relaxation_tolerances,
+            max_sweeps,
+            quiet,
+        } => study(
+            &scene,
+            output,
+            [reference, newton, relaxation],
+            tolerances,
+            sweeps,
+            relaxation_tolerances,
+            max_sweeps,
+            quiet,
+        ),
         Command::Info { file } => info(&file).map(|text| print!("{text}")),
     };
     match result {
@@ -286,18 +348,7 @@ fn run(
             (sim, file)
         }
         None => {
-            let base = scene_path.parent().unwrap_or(Path::new("."));
-            let sim = match (&scene.grains.sample, &scene.grains.walls) {
-                // The prepared equilibrium itself: walls kept, contacts with their history.
-                (Some(sample), Some(_)) => {
-                    let sample = grainstat::sample::read_sample(base.join(sample))?;
-                    Simulation::from_sample(&scene, sample, config, &scene_file)?
-                }
-                _ => {
-                    let grains = build_grains(&scene.grains, base, &scene_file)?;
-                    Simulation::new(&scene, grains, config, &scene_file)?
-                }
-            };
+            let sim = start(&scene, scene_path, config)?;
             let out = output
                 .or_else(|| scene.output.file.as_ref().map(PathBuf::from))
                 .unwrap_or_else(|| PathBuf::from(format!("results/{}.h5", scene.name)));
@@ -413,7 +464,7 @@ fn summary(sim: &Simulation) -> String {
     format!(
         "time [s]: detection {:.3}, return map {:.3}, assembly {:.3}, symbolic {:.3}, \
          factorisation {:.3}, solve {:.3}, topology {:.3}, output {:.3}\n\
-         counts: {} increments, {} Newton iterations, {} symbolic and {} numeric \
+         counts: {} increments, {} {}, {} symbolic and {} numeric \
          factorisations ({} steps on a reused one), {} solves, {} topology passes, \
          {} friends rebuilds, contacts +{} -{}, {} bonds broken, {} cuts",
         t.detection,
@@ -426,6 +477,10 @@ fn summary(sim: &Simulation) -> String {
         t.output,
         c.increments,
         c.newton_iterations,
+        match sim.config.strategy {
+            Strategy::Newton => "Newton iterations",
+            Strategy::Relaxation => "sweeps",
+        },
         c.symbolic_factorisations,
         c.numeric_factorisations,
         c.factorisations_reused,
@@ -437,4 +492,107 @@ fn summary(sim: &Simulation) -> String {
         c.bonds_broken,
         c.cuts
     )
+}
+
+/// Solver settings from a file, or from the preset shipped under `solvers/`.
+fn preset(path: Option<&Path>, builtin: &str, name: &str) -> Result<SolverConfig, Error> {
+    match path {
+        Some(p) => Ok(load_solver(p)?.0),
+        None => Ok(parse_solver(builtin, name)?),
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn study(
+    scene_path: &Path,
+    output: Option<PathBuf>,
+    [reference, newton, relaxation]: [Option<PathBuf>; 3],
+    tolerances: Vec<f64>,
+    sweeps: Vec<usize>,
+    relaxation_tolerances: Vec<f64>,
+    max_sweeps: usize,
+    quiet: bool,
+) -> Result<(), Error> {
+    // One thread: CPU time is then the time of one core, and comparable across strategies.
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build_global()
+        .map_err(|e| Error::io("thread pool", e))?;
+    let (scene, _) = load_scene(scene_path)?;
+    let plan = StudyPlan {
+        reference: preset(
+            reference.as_deref(),
+            include_str!("../solvers/study-reference.toml"),
+            "solvers/study-reference.toml",
+        )?,
+        newton: preset(
+            newton.as_deref(),
+            include_str!("../solvers/newton-cholesky.toml"),
+            "solvers/newton-cholesky.toml",
+        )?,
+        tolerances,
+        relaxation: preset(
+            relaxation.as_deref(),
+            include_str!("../solvers/relaxation.toml"),
+            "solvers/relaxation.toml",
+        )?,
+        sweeps,
+        relaxation_tolerances,
+        max_sweeps,
+    };
+    let dir = output.unwrap_or_else(|| PathBuf::from(format!("results/study-{}", scene.name)));
+    let say = |text: String| {
+        if !quiet {
+            eprintln!("{text}");
+        }
+    };
+    let total = scene.stages.iter().map(|s| s.increments).sum::<usize>();
+    let run = |label: &str, config: SolverConfig| -> Result<Track, Error> {
+        let mut sim = start(&scene, scene_path, config)?;
+        let track = track(&mut sim, |k| {
+            if !quiet {
+                eprint!("\r{label}: increment {k}/{total}   ");
+            }
+        });
+        say(format!(
+            "\r{label}: {:.2} s CPU, {} iterations, {} cuts{}",
+            track.cpu,
+            track.iterations,
+            track.cuts,
+            track
+                .failure
+                .as_ref()
+                .map(|f| format!(", stopped: {f}"))
+                .unwrap_or_default()
+        ));
+        Ok(track)
+    };
+    // Without a finished reference there is nothing to measure against: its failure is the
+    // study's (another reference can be given with --reference).
+    let reference = run("reference", plan.reference.clone())?;
+    if let Some(failure) = reference.failure.clone() {
+        return Err(failure.into());
+    }
+    let mut rows = Vec::new();
+    for trial in plan.trials() {
+        let track = run(
+            &format!("{} {}", trial.solver, trial.setting),
+            trial.config.clone(),
+        )?;
+        let errors = compare(&track, &reference);
+        rows.push(StudyRow {
+            trial,
+            track,
+            errors,
+        });
+    }
+    let mut files = write_tables(&dir, &scene.name, &reference, &rows)?;
+    files.extend(plot_study(&dir, &scene.name, &rows)?);
+    if !quiet {
+        eprint!("{}", markdown(&scene.name, &reference, &rows));
+    }
+    for f in files {
+        println!("{}", f.display());
+    }
+    Ok(())
 }

@@ -3,11 +3,33 @@
 //! state before returning the error.
 
 use crate::output::{ResultFile, RunHeader};
+use crate::scene::{build_grains, Scene};
 use crate::simulation::Simulation;
 use crate::solver::stats::secs;
+use crate::solver::SolverConfig;
 use crate::state::IncrementReport;
 use crate::Error;
+use std::path::Path;
 use std::time::Instant;
+
+/// A fresh simulation of the scene read from `scene_path`: from a sample's prepared
+/// equilibrium when the scene keeps its walls, else from its grains (files relative to the
+/// scene's folder).
+pub fn start(scene: &Scene, scene_path: &Path, config: SolverConfig) -> Result<Simulation, Error> {
+    let scene_file = scene_path.display().to_string();
+    let base = scene_path.parent().unwrap_or(Path::new("."));
+    Ok(match (&scene.grains.sample, &scene.grains.walls) {
+        // The prepared equilibrium itself: walls kept, contacts with their history.
+        (Some(sample), Some(_)) => {
+            let sample = crate::sample::read_sample(base.join(sample))?;
+            Simulation::from_sample(scene, sample, config, &scene_file)?
+        }
+        _ => {
+            let grains = build_grains(&scene.grains, base, &scene_file)?;
+            Simulation::new(scene, grains, config, &scene_file)?
+        }
+    })
+}
 
 /// The static data of a simulation's result file.
 pub fn header(sim: &Simulation, scene_text: &str, solver_text: &str) -> RunHeader {

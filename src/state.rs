@@ -41,7 +41,7 @@ pub struct IncrementReport {
     pub measurements: Measurements,
     /// Final relative residual `|R|_inf / F_ref`.
     pub residual: f64,
-    /// Newton iterations over all topology passes and sub-steps.
+    /// Newton iterations (sweeps of the relaxation) over all topology passes and sub-steps.
     pub newton_iterations: usize,
     /// Topology passes.
     pub topology_passes: usize,

@@ -11,7 +11,7 @@ use crate::contact::SlipTangent;
 use crate::geometry::{Circle, GrainSet, Side, Wall, WallControl, WallSet};
 use crate::measure::Measurements;
 use crate::simulation::{initial_contacts, MaterialModel, Simulation, StageProgram};
-use crate::solver::{LinearKind, SolverConfig};
+use crate::solver::{LinearKind, SolverConfig, Strategy};
 use crate::state::State;
 use crate::{Error, InputError};
 
@@ -228,6 +228,8 @@ pub fn prepare(
     // load is held, so halving the step would not help. Gaps left by growth close one
     // topology pass at a time, and there are more of them the larger the sample.
     let exact = SolverConfig {
+        // Newton, whatever strategy the settings name: 20 sweeps would leave it unbalanced.
+        strategy: Strategy::Newton,
         linear: LinearKind::Lu,
         slip_tangent: SlipTangent::Consistent,
         max_cuts: 0,

@@ -165,32 +165,43 @@ pub struct IncrementEquations<'a> {
 impl IncrementEquations<'_> {
     /// Positions, rotations and wall lines for increment displacements `u`.
     pub fn configure(&mut self, u: &[f64]) {
-        let per = self.dofs.per_grain;
         for i in 0..self.grains.len() {
-            let b = i * per;
-            let d = [u[b], u[b + 1]];
-            let p = self.grains.position[i];
-            self.q.position[i] = [p[0] + d[0], p[1] + d[1]];
-            self.q.displacement[i] = d;
-            self.q.rotation[i] = if per == 3 { u[b + 2] } else { 0.0 };
+            self.configure_grain(i, u);
         }
-        for (w, wall) in self.walls.walls.iter().enumerate() {
-            let normal_move = match self.dofs.wall[w] {
-                Some(dof) => u[dof],
-                None => self.step.normal_move[w],
-            };
-            let t = wall.tangent();
-            let s = self.step.slide[w];
-            self.q.wall_line[w] = wall.surface(wall.position + normal_move);
-            // A circle's centre stays; a line moves along its normal and along itself.
-            self.q.wall_displacement[w] = match wall.circle {
-                Some(_) => [0.0; 2],
-                None => [
-                    normal_move * wall.normal[0] + s * t[0],
-                    normal_move * wall.normal[1] + s * t[1],
-                ],
-            };
+        for w in 0..self.walls.len() {
+            self.configure_wall(w, u);
         }
+    }
+
+    /// Grain `i`'s position and rotation for increment displacements `u`.
+    pub fn configure_grain(&mut self, i: usize, u: &[f64]) {
+        let per = self.dofs.per_grain;
+        let b = i * per;
+        let d = [u[b], u[b + 1]];
+        let p = self.grains.position[i];
+        self.q.position[i] = [p[0] + d[0], p[1] + d[1]];
+        self.q.displacement[i] = d;
+        self.q.rotation[i] = if per == 3 { u[b + 2] } else { 0.0 };
+    }
+
+    /// Wall `w`'s line for increment displacements `u` (its own unknown, or the step's move).
+    pub fn configure_wall(&mut self, w: usize, u: &[f64]) {
+        let wall = &self.walls.walls[w];
+        let normal_move = match self.dofs.wall[w] {
+            Some(dof) => u[dof],
+            None => self.step.normal_move[w],
+        };
+        let t = wall.tangent();
+        let s = self.step.slide[w];
+        self.q.wall_line[w] = wall.surface(wall.position + normal_move);
+        // A circle's centre stays; a line moves along its normal and along itself.
+        self.q.wall_displacement[w] = match wall.circle {
+            Some(_) => [0.0; 2],
+            None => [
+                normal_move * wall.normal[0] + s * t[0],
+                normal_move * wall.normal[1] + s * t[1],
+            ],
+        };
     }
 
     /// Kinematics and the return map of every contact, in the configuration last set by
@@ -198,49 +209,56 @@ impl IncrementEquations<'_> {
     pub fn update_contacts(&mut self) -> Result<(), NumericError> {
         let start = Instant::now();
         self.kin.clear();
-        for c in self.contacts.iter_mut() {
-            let k = kinematics(c.pair, self.grains, self.walls, self.q);
-            c.overlap = k.overlap;
-            c.shear_increment = k.shear_increment - c.shear_offset;
-            c.response = self.law.respond(
-                &c.params,
-                c.bonded,
-                c.overlap,
-                c.shear_force0,
-                c.shear_increment,
-                self.slip_tangent,
-            );
-            if c.overlap < 0.0 && !c.bonded && self.reopened.binary_search(&c.pair).is_ok() {
-                (c.response.normal_force, c.response.shear_force) = (0.0, 0.0);
-            }
-            let scale = self.f_ref.max(self.load_scale);
-            if self.far && c.response.normal_force < 1e-3 * scale {
-                // Far from the answer, a contact that carries (almost) nothing yet gets the
-                // stiffness it will have when it carries its share.
-                let floor = self.law.tangent_floor(&c.params, scale);
-                let r = &mut c.response;
-                r.dfn_dn = r.dfn_dn.max(floor);
-                if !r.sliding {
-                    r.dfs_ds = r.dfs_ds.max(c.params.kappa * floor);
-                }
-            }
-            if !(c.response.normal_force.is_finite() && c.response.shear_force.is_finite()) {
-                return Err(NumericError::NotFinite {
-                    what: "contact force",
-                    place: format!("contact {:?}-{}", c.pair.a, c.pair.b),
-                });
-            }
+        for idx in 0..self.contacts.len() {
+            let k = self.respond(idx)?;
             self.kin.push(k);
         }
         self.timers.return_map += secs(start);
         Ok(())
     }
 
+    /// Kinematics and the return map of contact `idx` in the current configuration.
+    pub fn respond(&mut self, idx: usize) -> Result<Kinematics, NumericError> {
+        let c = &mut self.contacts[idx];
+        let k = kinematics(c.pair, self.grains, self.walls, self.q);
+        c.overlap = k.overlap;
+        c.shear_increment = k.shear_increment - c.shear_offset;
+        c.response = self.law.respond(
+            &c.params,
+            c.bonded,
+            c.overlap,
+            c.shear_force0,
+            c.shear_increment,
+            self.slip_tangent,
+        );
+        if c.overlap < 0.0 && !c.bonded && self.reopened.binary_search(&c.pair).is_ok() {
+            (c.response.normal_force, c.response.shear_force) = (0.0, 0.0);
+        }
+        let scale = self.f_ref.max(self.load_scale);
+        if self.far && c.response.normal_force < 1e-3 * scale {
+            // Far from the answer, a contact that carries (almost) nothing yet gets the
+            // stiffness it will have when it carries its share.
+            let floor = self.law.tangent_floor(&c.params, scale);
+            let r = &mut c.response;
+            r.dfn_dn = r.dfn_dn.max(floor);
+            if !r.sliding {
+                r.dfs_ds = r.dfs_ds.max(c.params.kappa * floor);
+            }
+        }
+        if !(c.response.normal_force.is_finite() && c.response.shear_force.is_finite()) {
+            return Err(NumericError::NotFinite {
+                what: "contact force",
+                place: format!("contact {:?}-{}", c.pair.a, c.pair.b),
+            });
+        }
+        Ok(k)
+    }
+
     /// Membrane pressures on the chains' grains, and their tangent: a segment `e` from `a` to
     /// `b` pushes both with `p D / 2` times `R e` (`R` the quarter turn), so
     /// `K_aa = K_ba = p D / 2 R` and `K_ab = K_bb = -p D / 2 R`. Over a closed chain that
     /// is symmetric; a symmetric solver takes each segment's symmetric part.
-    fn membrane_loads(&self, residual: &mut [f64], mut tangent: Option<&mut [f64]>) {
+    pub(super) fn membrane_loads(&self, residual: &mut [f64], mut tangent: Option<&mut [f64]>) {
         let quarter = [[0.0, -1.0], [1.0, 0.0]];
         for (m, membrane) in self.membranes.iter().enumerate() {
             let chain = &self.chains[m];
@@ -318,7 +336,7 @@ impl IncrementEquations<'_> {
 
     /// Current loaded length of wall `w`: fixed, a circle's circumference, or the gap between
     /// the walls that bound it.
-    fn wall_length(&self, w: usize) -> f64 {
+    pub(super) fn wall_length(&self, w: usize) -> f64 {
         let wall = &self.walls.walls[w];
         match (wall.length, wall.circle) {
             (Some(l), _) => l,

@@ -1,7 +1,8 @@
 //! A simulation: a scene turned into grains, walls, contacts and a load program, advanced one
-//! load increment at a time by the global solver.
+//! load increment at a time by the global solver or by grain-by-grain relaxation.
 
 mod equations;
+mod relaxation;
 mod setup;
 
 pub use equations::{anchors, Anchor, IncrementEquations, LoadStep};
@@ -15,7 +16,7 @@ use crate::geometry::{Chain, FriendSet, GrainSet, Pair, WallControl, WallSet};
 use crate::measure::{measure, Measurements, MembraneBoundary};
 use crate::solver::newton::{self, NewtonSettings, SystemMatrix};
 use crate::solver::stats::{secs, StageTimers};
-use crate::solver::{Equations, LinearKind, LinearSolver, SolverConfig, SolverStats};
+use crate::solver::{Equations, LinearKind, LinearSolver, SolverConfig, SolverStats, Strategy};
 use crate::state::{IncrementReport, State};
 use crate::NumericError;
 use std::sync::Arc;
@@ -302,13 +303,16 @@ impl Simulation {
         step: &LoadStep,
         report: &mut IncrementReport,
     ) -> Result<(Vec<f64>, TopologyChange), NumericError> {
+        self.reopened.clear();
+        if self.config.strategy == Strategy::Relaxation {
+            return self.relax_step(step, report);
+        }
         let mut u = vec![0.0; self.dofs.len];
         let mut total = TopologyChange::default();
         // The membranes start on the grains that are outermost in the committed state, and
         // Newton's trust radius at the scale of the overlaps.
         self.refresh_chains(false)?;
         self.trust = None;
-        self.reopened.clear();
         // Passes that end on a Newton solve count against the chatter cap; those that stop
         // for new friends lists are bounded by how far grains can travel.
         let (mut passes, mut reaches) = (0, 0);

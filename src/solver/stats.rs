@@ -28,7 +28,7 @@ pub struct StageTimers {
 pub struct Counters {
     /// Load increments converged.
     pub increments: usize,
-    /// Newton iterations.
+    /// Newton iterations, or sweeps of the relaxation.
     pub newton_iterations: usize,
     /// Symbolic factorisations (one per pattern).
     pub symbolic_factorisations: usize,

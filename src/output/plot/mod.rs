@@ -6,6 +6,7 @@
 mod charts;
 mod grains;
 mod radar;
+mod study;
 mod style;
 
 use std::path::{Path, PathBuf};
@@ -21,6 +22,7 @@ use crate::Error;
 use charts::{LineChart, Series};
 use grains::{Field, SamplePicture};
 use radar::{Fabric, Radar, RadarSeries, BINS};
+use study::{ErrorChart, ErrorSeries};
 use style::{load_font, max_abs, save, si_unit, PALETTE};
 
 /// Where the pictures of `result` go unless told: `NAME-plots/` beside `NAME.h5`.
@@ -274,4 +276,57 @@ fn radar_plots(
         series,
     };
     (orientation, forces)
+}
+
+/// The study's pictures in `dir`: the largest macro stress error of each run over its
+/// increments (`study.svg`, `.png`), and its error in the first increment, where every run
+/// starts from the same state (`study-increment-1.svg`, `.png`), against the run's CPU time;
+/// one line per strategy and way of stopping.
+pub fn plot_study(
+    dir: &Path,
+    scene: &str,
+    rows: &[crate::study::StudyRow],
+) -> Result<Vec<PathBuf>, Error> {
+    load_font()?;
+    let families = [
+        ("newton", "tolerance", "global Newton, by tolerance"),
+        ("relaxation", "n_i", "relaxation, n_i sweeps per increment"),
+        ("relaxation", "tolerance", "relaxation, to a tolerance"),
+    ];
+    let chart = |first: bool| ErrorChart {
+        title: if first {
+            format!("{scene}: macro stress error in increment 1 against CPU time")
+        } else {
+            format!("{scene}: macro stress error against CPU time")
+        },
+        y_label: if first {
+            "macro stress error in increment 1".into()
+        } else {
+            "largest macro stress error over the increments".into()
+        },
+        series: families
+            .iter()
+            .zip(PALETTE)
+            .map(|(&(solver, setting, label), colour)| ErrorSeries {
+                label: label.into(),
+                points: rows
+                    .iter()
+                    .filter(|r| r.trial.solver == solver && r.trial.setting.starts_with(setting))
+                    .filter_map(|r| {
+                        let error = if first {
+                            r.errors.first().map(|e| e.macro_stress)
+                        } else {
+                            r.worst().map(|w| w.macro_stress)
+                        };
+                        error.map(|e| (r.track.cpu, e, r.trial.setting.clone()))
+                    })
+                    .collect(),
+                colour,
+            })
+            .filter(|s| !s.points.is_empty())
+            .collect(),
+    };
+    let mut files = save(&chart(false), dir, "study")?;
+    files.extend(save(&chart(true), dir, "study-increment-1")?);
+    Ok(files)
 }

@@ -1,0 +1,444 @@
+//! Speed against error: one scene run by the global solver over a range of tolerances and by
+//! the grain-by-grain relaxation over a range of sweeps per increment (`n_i`) and of
+//! tolerances, each run compared increment by increment with a reference (the global solver
+//! near machine precision): the wall stresses and the macro stress (eq. A.41) relative to
+//! the reference's, the grain positions in mean radii, and the run's own relative residual,
+//! against the CPU time the run took.
+
+use crate::measure::Measurements;
+use crate::simulation::Simulation;
+use crate::solver::{SolverConfig, Strategy};
+use crate::{Error, NumericError};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// The runs of a study: the reference, and the efforts each strategy is tried at.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StudyPlan {
+    /// Settings of the reference run.
+    pub reference: SolverConfig,
+    /// The global solver's settings, its tolerance set per run.
+    pub newton: SolverConfig,
+    /// Tolerances of the global solver's runs.
+    pub tolerances: Vec<f64>,
+    /// The relaxation's settings, its sweeps and tolerance set per run.
+    pub relaxation: SolverConfig,
+    /// Sweeps per increment of the relaxation runs that do just that many (the thesis's way).
+    pub sweeps: Vec<usize>,
+    /// Tolerances of the relaxation runs that sweep until the residual meets them.
+    pub relaxation_tolerances: Vec<f64>,
+    /// Sweeps per increment allowed to those.
+    pub max_sweeps: usize,
+}
+
+/// One run of a study.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Trial {
+    /// `newton` or `relaxation`.
+    pub solver: String,
+    /// What was varied, as shown in the table (`tolerance 1e-6`, `n_i = 20`).
+    pub setting: String,
+    /// Its settings.
+    pub config: SolverConfig,
+}
+
+/// Tolerance of the relaxation runs with a fixed number of sweeps: never met first.
+const NO_TOLERANCE: f64 = 1e-300;
+
+impl StudyPlan {
+    /// The runs to make, the global solver's first, each family from least to most effort.
+    pub fn trials(&self) -> Vec<Trial> {
+        let mut out = Vec::new();
+        for &t in &self.tolerances {
+            out.push(Trial {
+                solver: "newton".into(),
+                setting: format!("tolerance {t:.0e}"),
+                config: SolverConfig {
+                    strategy: Strategy::Newton,
+                    tolerance: t,
+                    displacement_tolerance: t,
+                    ..self.newton.clone()
+                },
+            });
+        }
+        for &n in &self.sweeps {
+            out.push(Trial {
+                solver: "relaxation".into(),
+                setting: format!("n_i = {n}"),
+                config: SolverConfig {
+                    strategy: Strategy::Relaxation,
+                    sweeps: n,
+                    tolerance: NO_TOLERANCE,
+                    ..self.relaxation.clone()
+                },
+            });
+        }
+        for &t in &self.relaxation_tolerances {
+            out.push(Trial {
+                solver: "relaxation".into(),
+                setting: format!("tolerance {t:.0e}"),
+                config: SolverConfig {
+                    strategy: Strategy::Relaxation,
+                    sweeps: self.max_sweeps,
+                    tolerance: t,
+                    ..self.relaxation.clone()
+                },
+            });
+        }
+        out
+    }
+}
+
+/// What one run left after each increment, and what it cost.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Track {
+    /// Macro stress (eq. A.41) after each increment (Pa).
+    pub macro_stress: Vec<[[f64; 2]; 2]>,
+    /// Wall stresses after each increment (Pa).
+    pub wall_stress: Vec<Vec<f64>>,
+    /// Grain centres after each increment (m).
+    pub position: Vec<Vec<[f64; 2]>>,
+    /// Relative residual of the committed state after each increment, measured alike for
+    /// every strategy (largest imbalance over the mean contact force).
+    pub residual: Vec<f64>,
+    /// CPU seconds of the process spent in the increments (measuring excluded).
+    pub cpu: f64,
+    /// Wall-clock seconds of the same.
+    pub wall: f64,
+    /// Newton iterations or sweeps, over all increments.
+    pub iterations: usize,
+    /// Numeric factorisations.
+    pub factorisations: usize,
+    /// Increments halved.
+    pub cuts: usize,
+    /// Mean grain radius (m).
+    pub r_mean: f64,
+    /// Why the run stopped early, if it did.
+    pub failure: Option<NumericError>,
+}
+
+/// CPU seconds used by this process so far (user and system, all threads).
+pub fn cpu_seconds() -> f64 {
+    // SAFETY: getrusage only writes the struct it is given.
+    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
+    if unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut usage) } != 0 {
+        return f64::NAN;
+    }
+    let t = |v: libc::timeval| v.tv_sec as f64 + 1e-6 * v.tv_usec as f64;
+    t(usage.ru_utime) + t(usage.ru_stime)
+}
+
+/// Run a simulation to the end of its load program, timing only the increments and
+/// recording after each one what the study compares. A failing increment ends the track.
+pub fn track(sim: &mut Simulation, mut on_increment: impl FnMut(usize)) -> Track {
+    let mut out = Track {
+        r_mean: sim.mean_radius(),
+        ..Default::default()
+    };
+    while !sim.is_finished() {
+        let (cpu, wall) = (cpu_seconds(), Instant::now());
+        let result = sim.run_increment();
+        out.cpu += cpu_seconds() - cpu;
+        out.wall += wall.elapsed().as_secs_f64();
+        let report = match result {
+            Ok(report) => report,
+            Err(err) => {
+                out.failure = Some(err);
+                break;
+            }
+        };
+        out.iterations += report.newton_iterations;
+        out.cuts += report.cuts as usize;
+        let Measurements {
+            macro_stress,
+            wall_stress,
+            ..
+        } = report.measurements;
+        out.macro_stress.push(macro_stress);
+        out.wall_stress.push(wall_stress);
+        out.position.push(sim.state.grains.position.clone());
+        out.residual.push(sim.equilibrium_error().0);
+        on_increment(report.increment);
+    }
+    out.factorisations = sim.stats.counters.numeric_factorisations;
+    out
+}
+
+/// A run's errors against the reference in one increment.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct IncrementError {
+    /// Largest difference of a macro stress component over the reference's largest.
+    pub macro_stress: f64,
+    /// Largest difference of a wall stress over the reference's largest wall stress.
+    pub wall_stress: f64,
+    /// Largest distance of a grain centre from the reference's, in mean radii.
+    pub displacement: f64,
+    /// Root mean square of those distances, in mean radii: the largest is often a grain on
+    /// a mechanism (sliding on all its contacts), whose place the forces do not fix.
+    pub displacement_rms: f64,
+    /// The run's own relative residual.
+    pub residual: f64,
+}
+
+impl IncrementError {
+    /// The larger of each error.
+    fn max(self, o: IncrementError) -> IncrementError {
+        IncrementError {
+            macro_stress: self.macro_stress.max(o.macro_stress),
+            wall_stress: self.wall_stress.max(o.wall_stress),
+            displacement: self.displacement.max(o.displacement),
+            displacement_rms: self.displacement_rms.max(o.displacement_rms),
+            residual: self.residual.max(o.residual),
+        }
+    }
+}
+
+/// The run's errors in each increment both reached.
+pub fn compare(run: &Track, reference: &Track) -> Vec<IncrementError> {
+    let largest = |v: &mut dyn Iterator<Item = f64>| v.fold(0.0f64, |m, x| m.max(x.abs()));
+    (0..run.macro_stress.len().min(reference.macro_stress.len()))
+        .map(|k| {
+            let (a, b) = (run.macro_stress[k], reference.macro_stress[k]);
+            let scale = largest(&mut b.iter().flatten().copied());
+            let diff = largest(&mut (0..4).map(|i| a[i / 2][i % 2] - b[i / 2][i % 2]));
+            let (wa, wb) = (&run.wall_stress[k], &reference.wall_stress[k]);
+            let wall_scale = largest(&mut wb.iter().copied());
+            let wall_diff = largest(&mut wa.iter().zip(wb).map(|(x, y)| x - y));
+            let moved: Vec<f64> = run.position[k]
+                .iter()
+                .zip(&reference.position[k])
+                .map(|(p, q)| (p[0] - q[0]).hypot(p[1] - q[1]))
+                .collect();
+            let rms = (moved.iter().map(|d| d * d).sum::<f64>() / moved.len().max(1) as f64).sqrt();
+            IncrementError {
+                macro_stress: diff / scale,
+                wall_stress: wall_diff / wall_scale,
+                displacement: moved.iter().fold(0.0f64, |m, d| m.max(*d)) / reference.r_mean,
+                displacement_rms: rms / reference.r_mean,
+                residual: run.residual[k],
+            }
+        })
+        .collect()
+}
+
+/// One run's result in the study.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StudyRow {
+    /// The run.
+    pub trial: Trial,
+    /// What it left.
+    pub track: Track,
+    /// Its errors per increment.
+    pub errors: Vec<IncrementError>,
+}
+
+impl StudyRow {
+    /// The largest error of each kind over the increments, or `None` when the run did not
+    /// reach the end of the load program.
+    pub fn worst(&self) -> Option<IncrementError> {
+        if self.track.failure.is_some() {
+            return None;
+        }
+        Some(
+            self.errors
+                .iter()
+                .fold(IncrementError::default(), |m, e| m.max(*e)),
+        )
+    }
+}
+
+/// Macro stress errors the study reports the time to reach.
+pub const TARGETS: [f64; 3] = [1e-3, 1e-6, 1e-9];
+
+/// The fastest finished run of `solver` whose macro stress error stays within `target` in
+/// every increment.
+pub fn fastest<'a>(rows: &'a [StudyRow], solver: &str, target: f64) -> Option<&'a StudyRow> {
+    rows.iter()
+        .filter(|r| r.trial.solver == solver)
+        .filter(|r| r.worst().is_some_and(|w| w.macro_stress <= target))
+        .min_by(|a, b| a.track.cpu.total_cmp(&b.track.cpu))
+}
+
+/// Write `study.csv` (one row per run), `study-increments.csv` (one row per run and
+/// increment) and `study.md` (the tables) into `dir`; returns their paths.
+pub fn write_tables(
+    dir: &Path,
+    scene: &str,
+    reference: &Track,
+    rows: &[StudyRow],
+) -> Result<Vec<PathBuf>, Error> {
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir.display().to_string(), e))?;
+    let mut runs = String::from(
+        "solver,setting,cpu_s,wall_s,iterations,factorisations,cuts,macro_stress_error,\
+         wall_stress_error,displacement_error,displacement_rms,residual,status\n",
+    );
+    let mut increments =
+        String::from("solver,setting,increment,macro_stress_error,wall_stress_error,displacement_error,displacement_rms,residual\n");
+    for row in rows {
+        let w = row.worst().unwrap_or_default();
+        let status = match &row.track.failure {
+            Some(f) => format!("failed: {}", f.to_string().replace(',', ";")),
+            None => "ok".into(),
+        };
+        let t = &row.track;
+        writeln!(
+            runs,
+            "{},{},{:.4},{:.4},{},{},{},{:.3e},{:.3e},{:.3e},{:.3e},{:.3e},{}",
+            row.trial.solver,
+            row.trial.setting,
+            t.cpu,
+            t.wall,
+            t.iterations,
+            t.factorisations,
+            t.cuts,
+            w.macro_stress,
+            w.wall_stress,
+            w.displacement,
+            w.displacement_rms,
+            w.residual,
+            status
+        )
+        .expect("string");
+        for (k, e) in row.errors.iter().enumerate() {
+            writeln!(
+                increments,
+                "{},{},{},{:.3e},{:.3e},{:.3e},{:.3e},{:.3e}",
+                row.trial.solver,
+                row.trial.setting,
+                k + 1,
+                e.macro_stress,
+                e.wall_stress,
+                e.displacement,
+                e.displacement_rms,
+                e.residual
+            )
+            .expect("string");
+        }
+    }
+    let paths = [
+        (dir.join("study.csv"), runs),
+        (dir.join("study-increments.csv"), increments),
+        (dir.join("study.md"), markdown(scene, reference, rows)),
+    ];
+    for (path, text) in &paths {
+        std::fs::write(path, text).map_err(|e| Error::io(path.display().to_string(), e))?;
+    }
+    Ok(paths.into_iter().map(|(p, _)| p).collect())
+}
+
+/// The study as markdown: every run, the time each strategy needs to reach each target, and
+/// the thesis's setting (`n_i = 20`) increment by increment.
+pub fn markdown(scene: &str, reference: &Track, rows: &[StudyRow]) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "## Speed against error: {scene}\n\nReference: the global solver near machine \
+         precision, {:.2} s CPU, {} Newton iterations, {} cuts; largest residual {:.1e}. \
+         Errors are the largest over the increments: macro stress (eq. A.41) and wall \
+         stresses relative to the reference's largest component, grain positions in mean \
+         radii; the residual is the run's own.\n",
+        reference.cpu,
+        reference.iterations,
+        reference.cuts,
+        reference.residual.iter().fold(0.0f64, |m, r| m.max(*r))
+    );
+    s.push_str(
+        "| solver | setting | CPU [s] | iterations / sweeps | macro stress error | \
+         in increment 1 | wall stress error | displacement error, largest / rms [r_mean] | \
+         residual |\n|---|---|---|---|---|---|---|---|---|\n",
+    );
+    for row in rows {
+        let t = &row.track;
+        match row.worst() {
+            Some(w) => {
+                let _ = writeln!(
+                    s,
+                    "| {} | {} | {:.2} | {} | {:.1e} | {:.1e} | {:.1e} | {:.1e} / {:.1e} | {:.1e} |",
+                    row.trial.solver,
+                    row.trial.setting,
+                    t.cpu,
+                    t.iterations,
+                    w.macro_stress,
+                    row.errors.first().map_or(f64::NAN, |e| e.macro_stress),
+                    w.wall_stress,
+                    w.displacement,
+                    w.displacement_rms,
+                    w.residual
+                );
+            }
+            None => {
+                let _ = writeln!(
+                    s,
+                    "| {} | {} | {:.2} | {} | failed after {} increments: {} | | | | |",
+                    row.trial.solver,
+                    row.trial.setting,
+                    t.cpu,
+                    t.iterations,
+                    row.errors.len(),
+                    t.failure
+                        .as_ref()
+                        .map(|f| f.to_string())
+                        .unwrap_or_default()
+                );
+            }
+        }
+    }
+    s.push_str(
+        "\nCPU time of the whole run to a macro stress error of (largest over the \
+         increments):\n\n| solver |",
+    );
+    for t in TARGETS {
+        let _ = write!(s, " {t:.0e} |");
+    }
+    s.push_str("\n|---|---|---|---|\n");
+    for solver in ["newton", "relaxation"] {
+        let _ = write!(s, "| {solver} |");
+        for target in TARGETS {
+            match fastest(rows, solver, target) {
+                Some(r) => {
+                    let _ = write!(s, " {:.2} s ({}) |", r.track.cpu, r.trial.setting);
+                }
+                None => s.push_str(" not reached |"),
+            }
+        }
+        s.push('\n');
+    }
+    s.push_str("\nSmallest n_i run that reaches it:");
+    for target in TARGETS {
+        let smallest = rows
+            .iter()
+            .filter(|r| r.trial.setting.starts_with("n_i"))
+            .filter(|r| r.worst().is_some_and(|w| w.macro_stress <= target))
+            .min_by_key(|r| r.trial.config.sweeps);
+        let _ = write!(
+            s,
+            " {target:.0e}: {};",
+            smallest.map_or("none".into(), |r| r.trial.setting.clone())
+        );
+    }
+    s.push('\n');
+    if let Some(row) = rows
+        .iter()
+        .find(|r| r.trial.solver == "relaxation" && r.trial.setting == "n_i = 20")
+    {
+        s.push_str(
+            "\nThe thesis's setting, relaxation with n_i = 20, increment by increment:\n\n\
+             | increment | macro stress error | wall stress error | displacement error, \
+             largest / rms [r_mean] | residual |\n|---|---|---|---|---|\n",
+        );
+        for (k, e) in row.errors.iter().enumerate() {
+            let _ = writeln!(
+                s,
+                "| {} | {:.1e} | {:.1e} | {:.1e} / {:.1e} | {:.1e} |",
+                k + 1,
+                e.macro_stress,
+                e.wall_stress,
+                e.displacement,
+                e.displacement_rms,
+                e.residual
+            );
+        }
+    }
+    s
+}
