@@ -2,9 +2,7 @@
 //! unknown, and the tangent `K = -dR/du`, assembled into the fixed pattern.
 
 use crate::assembly::{contact_block, DofMap, Pattern};
-use crate::contact::{
-    kinematics, Configuration, Contact, ContactLaw, ContactSet, Kinematics, SlipTangent,
-};
+use crate::contact::{kinematics, Configuration, Contact, ContactLaw, Kinematics, SlipTangent};
 use crate::geometry::{
     extent_along, Chain, FriendSet, GrainSet, Membrane, MembraneShape, Pair, Side, WallSet,
 };
@@ -353,13 +351,10 @@ impl IncrementEquations<'_> {
 /// Overlap, in mean radii, within which a contact keeps its state (made or lost).
 pub const CHATTER: f64 = 1e-12;
 
-/// Overlap a step may press a closing gap into, as a share of the mean overlap of the
-/// contacts: a new contact then starts with a force well below the mean (a tenth for a linear
-/// law, 3% for Hertz), while the many near contacts of a dense packing close within one step.
-const CLOSING_DEPTH: f64 = 0.1;
-
-/// Smallest closing overlap, in mean radii: above the chatter band of the topology update, so
-/// the contact is made.
+/// Overlap, in mean radii, at which a step that closes a gap stops: above the chatter band,
+/// so the contact is made, and small enough that its shear displacement counts from where
+/// the surfaces touched, whatever path Newton took there (deeper stops made the answer
+/// depend on the path: 6.5e-7 of the macro stress in one increment of the sand study).
 const CLOSING_OVERLAP: f64 = 1e-6;
 
 /// Share of the half skin a grain may move from where the friends lists were made before a
@@ -412,10 +407,9 @@ impl Equations for IncrementEquations<'_> {
     fn closing_fraction(&mut self, u: &[f64], du: &[f64]) -> f64 {
         // Overlaps of the pairs not in contact at the start and at the end of the step;
         // within it the overlap of two grains lies above the straight line between the two
-        // (distance is convex), so stopping where that line reaches the closing depth leaves
+        // (distance is convex), so stopping where that line reaches the closing overlap leaves
         // at least that overlap, and the contact is made.
-        let mean_overlap = ContactSet::mean_overlap(self.contacts).unwrap_or(0.0);
-        let depth = (CLOSING_DEPTH * mean_overlap).max(CLOSING_OVERLAP * self.r_mean);
+        let depth = CLOSING_OVERLAP * self.r_mean;
         self.configure(u);
         // No further than most of the way to where the lists go stale, by the triangle
         // inequality on each grain's move.
