@@ -49,44 +49,38 @@ const NO_TOLERANCE: f64 = 1e-300;
 impl StudyPlan {
     /// The runs to make, the global solver's first, each family from least to most effort.
     pub fn trials(&self) -> Vec<Trial> {
-        let mut out = Vec::new();
-        for &t in &self.tolerances {
-            out.push(Trial {
-                solver: "newton".into(),
-                setting: format!("tolerance {t:.0e}"),
-                config: SolverConfig {
-                    strategy: Strategy::Newton,
-                    tolerance: t,
-                    displacement_tolerance: t,
-                    ..self.newton.clone()
-                },
-            });
-        }
-        for &n in &self.sweeps {
-            out.push(Trial {
-                solver: "relaxation".into(),
-                setting: format!("n_i = {n}"),
-                config: SolverConfig {
-                    strategy: Strategy::Relaxation,
-                    sweeps: n,
-                    tolerance: NO_TOLERANCE,
-                    ..self.relaxation.clone()
-                },
-            });
-        }
-        for &t in &self.relaxation_tolerances {
-            out.push(Trial {
-                solver: "relaxation".into(),
-                setting: format!("tolerance {t:.0e}"),
-                config: SolverConfig {
-                    strategy: Strategy::Relaxation,
-                    sweeps: self.max_sweeps,
-                    tolerance: t,
-                    ..self.relaxation.clone()
-                },
-            });
-        }
-        out
+        let trial = |solver: &str, setting: String, config: SolverConfig| Trial {
+            solver: solver.into(),
+            setting,
+            config,
+        };
+        let newton = self.tolerances.iter().map(|&t| {
+            let config = SolverConfig {
+                strategy: Strategy::Newton,
+                tolerance: t,
+                displacement_tolerance: t,
+                ..self.newton.clone()
+            };
+            trial("newton", format!("tolerance {t:.0e}"), config)
+        });
+        let relaxation = |sweeps: usize, tolerance: f64| SolverConfig {
+            strategy: Strategy::Relaxation,
+            sweeps,
+            tolerance,
+            ..self.relaxation.clone()
+        };
+        let fixed_sweeps = self.sweeps.iter().map(|&n| {
+            trial(
+                "relaxation",
+                format!("n_i = {n}"),
+                relaxation(n, NO_TOLERANCE),
+            )
+        });
+        let to_tolerance = self.relaxation_tolerances.iter().map(|&t| {
+            let config = relaxation(self.max_sweeps, t);
+            trial("relaxation", format!("tolerance {t:.0e}"), config)
+        });
+        newton.chain(fixed_sweeps).chain(to_tolerance).collect()
     }
 }
 
