@@ -10,7 +10,7 @@ mod local;
 
 pub use local::{contact_block, LocalBlock};
 
-use crate::geometry::{FriendSet, Pair, Side, WallSet};
+use crate::geometry::{Chain, FriendSet, Pair, Side, WallSet};
 use faer::sparse::SymbolicSparseColMat;
 
 /// Which unknowns exist: `x, y` (and `phi` unless rotations are fixed) per grain, then one
@@ -223,6 +223,14 @@ impl Pattern {
     /// Whether the pattern has the centre blocks of grains `a` and `b` together.
     pub fn links(&self, dofs: &DofMap, a: usize, b: usize) -> bool {
         self.slot(dofs.grain(a), dofs.grain(b)).is_some()
+    }
+
+    /// Whether the pattern couples every pair of neighbours along `chains`.
+    pub fn couples(&self, dofs: &DofMap, chains: &[Chain]) -> bool {
+        chains
+            .iter()
+            .flat_map(Chain::links)
+            .all(|(a, b)| self.links(dofs, a, b))
     }
 
     /// Number of stored entries.

@@ -72,6 +72,14 @@ impl Chain {
 /// bridges any pocket between surface grains that the probe does not fit into.
 const PROBE_RADII: f64 = 2.0;
 
+/// Each membrane's chain on grains at `position` with `radius`.
+pub fn chains(membranes: &[Membrane], position: &[[f64; 2]], radius: &[f64]) -> Vec<Chain> {
+    membranes
+        .iter()
+        .map(|m| m.chain(position, radius))
+        .collect()
+}
+
 impl Membrane {
     /// The grains a membrane lies on: those a probe disc touches as it rolls around the outside
     /// of the sample ("ball pivoting"), in order, sample on the left. A side starts from its

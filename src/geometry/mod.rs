@@ -7,7 +7,7 @@ mod membrane;
 
 pub use friends::{gap as gap_between, FriendSet, Pair, Side};
 pub use grid::CellGrid;
-pub use membrane::{Chain, Membrane, MembraneShape};
+pub use membrane::{chains, Chain, Membrane, MembraneShape};
 
 /// The grains: centres, rotations and radii, one entry per grain (`GrainId` = index).
 ///

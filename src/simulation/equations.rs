@@ -4,7 +4,7 @@
 use crate::assembly::{contact_block, DofMap, Pattern};
 use crate::contact::{kinematics, Configuration, Contact, ContactLaw, Kinematics, SlipTangent};
 use crate::geometry::{
-    extent_along, Chain, FriendSet, GrainSet, Membrane, MembraneShape, Pair, Side, WallSet,
+    chains, extent_along, Chain, FriendSet, GrainSet, Membrane, MembraneShape, Pair, Side, WallSet,
 };
 use crate::simulation::MaterialModel;
 use crate::solver::stats::{secs, StageTimers};
@@ -120,7 +120,6 @@ pub struct IncrementEquations<'a> {
     pub step: &'a LoadStep,
     /// Membranes (their pressures come from the step).
     pub membranes: &'a [Membrane],
-    /// Each membrane's chain for this increment.
     /// Each membrane's chain: found anew where a step closed a gap, as the grains roll.
     pub chains: &'a mut Vec<Chain>,
     /// Springs on the rigid-body motions no wall holds.
@@ -367,16 +366,8 @@ impl Equations for IncrementEquations<'_> {
         self.configure(u);
         // The membranes follow the grains, as far as the pattern couples their new chains.
         if !self.membranes.is_empty() {
-            let chains: Vec<Chain> = self
-                .membranes
-                .iter()
-                .map(|m| m.chain(&self.q.position, &self.grains.radius))
-                .collect();
-            let coupled = chains
-                .iter()
-                .flat_map(Chain::links)
-                .all(|(a, b)| self.pattern.links(self.dofs, a, b));
-            if !coupled {
+            let chains = chains(self.membranes, &self.q.position, &self.grains.radius);
+            if !self.pattern.couples(self.dofs, &chains) {
                 return None;
             }
             *self.chains = chains;
@@ -409,7 +400,7 @@ impl Equations for IncrementEquations<'_> {
         // within it the overlap of two grains lies above the straight line between the two
         // (distance is convex), so stopping where that line reaches the closing overlap leaves
         // at least that overlap, and the contact is made.
-        let depth = CLOSING_OVERLAP * self.r_mean;
+        let closing = CLOSING_OVERLAP * self.r_mean;
         self.configure(u);
         // No further than most of the way to where the lists go stale, by the triangle
         // inequality on each grain's move.
@@ -437,7 +428,7 @@ impl Equations for IncrementEquations<'_> {
                     kinematics(pair, self.grains, self.walls, self.q).overlap,
                 )
             })
-            .filter(|&(_, overlap)| overlap < depth)
+            .filter(|&(_, overlap)| overlap < closing)
             .collect();
         if apart.is_empty() {
             return fraction;
@@ -446,8 +437,8 @@ impl Equations for IncrementEquations<'_> {
         self.configure(&end);
         for (pair, overlap0) in apart {
             let overlap1 = kinematics(pair, self.grains, self.walls, self.q).overlap;
-            if overlap1 > depth {
-                fraction = fraction.min((depth - overlap0) / (overlap1 - overlap0));
+            if overlap1 > closing {
+                fraction = fraction.min((closing - overlap0) / (overlap1 - overlap0));
             }
         }
         fraction

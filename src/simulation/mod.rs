@@ -12,7 +12,7 @@ use crate::assembly::{DofMap, Pattern};
 use crate::contact::{
     kinematics, BrokenBond, Configuration, Contact, ContactLaw, ContactSet, Kinematics,
 };
-use crate::geometry::{Chain, FriendSet, GrainSet, Pair, WallControl, WallSet};
+use crate::geometry::{chains, Chain, FriendSet, GrainSet, Pair, WallControl, WallSet};
 use crate::measure::{measure, Measurements, MembraneBoundary};
 use crate::solver::newton::{self, NewtonSettings, SystemMatrix};
 use crate::solver::stats::{secs, StageTimers};
@@ -52,8 +52,6 @@ pub struct Simulation {
     pair_index: Vec<usize>,
     /// Each membrane's chain for the current increment.
     chains: Vec<Chain>,
-    /// The grain links of those chains, which the pattern holds.
-    links: Vec<(usize, usize)>,
     /// Springs on the rigid-body motions the walls leave free.
     anchors: Vec<Anchor>,
     /// Trust radius the last Newton pass of this increment ended with.
@@ -132,11 +130,11 @@ impl Simulation {
             config.skin * r_mean,
             &state.contacts,
         );
-        let chains: Vec<Chain> = state
-            .membranes
-            .iter()
-            .map(|m| m.chain(&state.grains.position, &state.grains.radius))
-            .collect();
+        let chains = chains(
+            &state.membranes,
+            &state.grains.position,
+            &state.grains.radius,
+        );
         let links: Vec<(usize, usize)> = chains.iter().flat_map(Chain::links).collect();
         let pattern = Arc::new(Pattern::build(&friends, &dofs, &state.walls, &links));
         let mut sim = Simulation {
@@ -154,7 +152,6 @@ impl Simulation {
             kin: Vec::new(),
             pair_index: Vec::new(),
             chains,
-            links,
             anchors: anchors(&state.grains, &state.walls),
             trust: None,
             reopened: Vec::new(),
@@ -439,8 +436,6 @@ impl Simulation {
         self.stats = stats;
         self.values = values;
         self.linear = linear;
-        // Chains Newton let follow the grains: their links are in the pattern.
-        self.links = self.chains.iter().flat_map(Chain::links).collect();
         result
     }
 
@@ -587,11 +582,12 @@ impl Simulation {
     /// The pattern of the friends lists and membrane links, with its value buffer and its
     /// symbolic factorisation.
     fn install_pattern(&mut self) -> Result<(), NumericError> {
+        let links: Vec<(usize, usize)> = self.chains.iter().flat_map(Chain::links).collect();
         self.pattern = Arc::new(Pattern::build(
             &self.friends,
             &self.dofs,
             &self.state.walls,
-            &self.links,
+            &links,
         ));
         self.values = vec![0.0; self.pattern.nnz()];
         self.analyse_pattern()
@@ -609,12 +605,7 @@ impl Simulation {
         } else {
             &self.state.grains.position
         };
-        let chains: Vec<Chain> = self
-            .state
-            .membranes
-            .iter()
-            .map(|m| m.chain(position, &self.state.grains.radius))
-            .collect();
+        let chains = chains(&self.state.membranes, position, &self.state.grains.radius);
         // A chain changes with its grains, or with the sample's extent along a side, which
         // sets the load of its end pieces.
         let moved = |a: [f64; 2], b: [f64; 2]| {
@@ -626,12 +617,7 @@ impl Simulation {
             .filter(|(new, old)| new.grains != old.grains || moved(new.extent, old.extent))
             .count();
         self.chains = chains;
-        let links: Vec<(usize, usize)> = self.chains.iter().flat_map(Chain::links).collect();
-        let missing = links
-            .iter()
-            .any(|&(a, b)| !self.pattern.links(&self.dofs, a, b));
-        self.links = links;
-        if missing {
+        if !self.pattern.couples(&self.dofs, &self.chains) {
             self.install_pattern()?;
         }
         Ok(changed)
