@@ -97,6 +97,7 @@ fn stages(c: &mut Criterion) {
             chains: &mut chains,
             anchors: &anchors,
             reopened: &[],
+            unilateral: false,
             dofs: &dofs,
             pattern: &pattern,
             law: law.as_ref(),

@@ -29,6 +29,7 @@
 pub mod assembly;
 pub mod contact;
 pub mod error;
+pub mod estimate;
 pub mod geometry;
 pub mod measure;
 pub mod output;
@@ -40,6 +41,7 @@ pub mod simulation;
 pub mod solver;
 pub mod state;
 pub mod study;
+pub mod sweep;
 
 pub use error::{Error, InputError, NumericError, Result};
 

@@ -13,6 +13,7 @@ use grainstat::simulation::Simulation;
 use grainstat::solver::{SolverConfig, Strategy};
 use grainstat::state::IncrementReport;
 use grainstat::study::{compare, markdown, track, write_tables, StudyPlan, StudyRow, Track};
+use grainstat::sweep;
 use grainstat::{Error, InputError};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
@@ -140,6 +141,29 @@ enum Command {
         #[arg(long)]
         quiet: bool,
     },
+    /// Run a test scene at several values of some of its keys (a biaxial test at several
+    /// lateral pressures, a sample at several seeds) and collect the macro parameters of every
+    /// run in one table (sweep.csv, sweep.md), with c' and phi' fitted to the peaks.
+    #[command(
+        after_help = "Example:\n  grainstat sweep examples/sweep-sand-lateral.toml -o results/sweep-sand"
+    )]
+    Sweep {
+        /// Sweep file (TOML): `scene`, `keys`, `values`, and a `label` and `unit` for them.
+        sweep: PathBuf,
+        /// Directory for the runs, their pictures and the table; default: results/sweep-NAME.
+        #[arg(short, long, value_name = "DIR")]
+        output: Option<PathBuf>,
+        /// Solver settings (TOML) of every run; default: the sweep file's `solver`, else the
+        /// built-in Newton-Cholesky settings.
+        #[arg(long)]
+        solver: Option<PathBuf>,
+        /// Worker threads (results do not depend on it).
+        #[arg(long, default_value_t = 1)]
+        threads: usize,
+        /// No progress lines.
+        #[arg(long)]
+        quiet: bool,
+    },
     /// Summarise a result file: scene, increments written, last stresses, timers, counters.
     #[command(after_help = "Example:\n  grainstat info results/crystal-biaxial.h5")]
     Info {
@@ -205,6 +229,13 @@ fn main() -> ExitCode {
             max_sweeps,
             quiet,
         ),
+        Command::Sweep {
+            sweep,
+            output,
+            solver,
+            threads,
+            quiet,
+        } => run_sweep_command(&sweep, output, solver.as_deref(), threads, quiet),
         Command::Info { file } => info(&file).map(|text| print!("{text}")),
     };
     match result {
@@ -406,6 +437,10 @@ fn run(
     match (result, plotted) {
         (Ok(()), Ok(files)) => {
             if !quiet {
+                let parameters = default_dir(&path).join("parameters.md");
+                if let Ok(table) = std::fs::read_to_string(&parameters) {
+                    eprint!("{table}");
+                }
                 eprintln!("pictures: {}", default_dir(&path).display());
                 if let Some(xmf) = files.last() {
                     eprintln!("ParaView: {}", xmf.display());
@@ -438,13 +473,14 @@ fn log_line(sim: &Simulation, r: &IncrementReport) -> String {
     let tail = &sim.last_residuals[sim.last_residuals.len().saturating_sub(5)..];
     let residuals: Vec<String> = tail.iter().map(|v| format!("{v:.1e}")).collect();
     format!(
-        "inc {:>5} stage {}: {} it, {} pass, {} cuts, residuals [{}]; contacts {} (+{} -{}), \
-         broken {}; walls [{}] Pa; macro xx {:.4e} yy {:.4e} xy {:.2e} Pa",
+        "inc {:>5} stage {}: {} it, {} pass, {} cuts, {} settled, residuals [{}]; contacts {} \
+         (+{} -{}), broken {}; walls [{}] Pa; macro xx {:.4e} yy {:.4e} xy {:.2e} Pa",
         r.increment,
         r.stage,
         r.newton_iterations,
         r.topology_passes,
         r.cuts,
+        r.settled,
         residuals.join(" "),
         m.grain_contacts + m.wall_contacts,
         r.contacts_made,
@@ -463,10 +499,10 @@ fn summary(sim: &Simulation) -> String {
     let c = &sim.stats.counters;
     format!(
         "time [s]: detection {:.3}, return map {:.3}, assembly {:.3}, symbolic {:.3}, \
-         factorisation {:.3}, solve {:.3}, topology {:.3}, output {:.3}\n\
+         factorisation {:.3}, solve {:.3}, topology {:.3}, settling {:.3}, output {:.3}\n\
          counts: {} increments, {} {}, {} symbolic and {} numeric \
          factorisations ({} steps on a reused one), {} solves, {} topology passes, \
-         {} friends rebuilds, contacts +{} -{}, {} bonds broken, {} cuts",
+         {} friends rebuilds, contacts +{} -{}, {} bonds broken, {} cuts, {} settling steps",
         t.detection,
         t.return_map,
         t.assembly,
@@ -474,6 +510,7 @@ fn summary(sim: &Simulation) -> String {
         t.factorisation,
         t.solve,
         t.topology,
+        t.settling,
         t.output,
         c.increments,
         c.newton_iterations,
@@ -490,7 +527,8 @@ fn summary(sim: &Simulation) -> String {
         c.contacts_made,
         c.contacts_lost,
         c.bonds_broken,
-        c.cuts
+        c.cuts,
+        c.settling_steps
     )
 }
 
@@ -500,6 +538,57 @@ fn preset(path: Option<&Path>, builtin: &str, name: &str) -> Result<SolverConfig
         Some(p) => Ok(load_solver(p)?.0),
         None => Ok(parse_solver(builtin, name)?),
     }
+}
+
+fn run_sweep_command(
+    sweep_path: &Path,
+    output: Option<PathBuf>,
+    solver_path: Option<&Path>,
+    threads: usize,
+    quiet: bool,
+) -> Result<(), Error> {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads.max(1))
+        .build_global()
+        .map_err(|e| Error::io("thread pool", e))?;
+    let spec = sweep::load_sweep(sweep_path)?;
+    let named = spec
+        .solver
+        .as_ref()
+        .map(|s| sweep_path.parent().unwrap_or(Path::new(".")).join(s));
+    let (config, solver_text) = solver_settings(solver_path.or(named.as_deref()))?;
+    let name = sweep_path
+        .file_stem()
+        .map_or_else(|| "sweep".into(), |s| s.to_string_lossy().into_owned());
+    let dir = output.unwrap_or_else(|| PathBuf::from(format!("results/sweep-{name}")));
+    let runs = sweep::run_sweep(
+        &spec,
+        sweep_path,
+        &config,
+        &solver_text,
+        &dir,
+        |k, value| {
+            if !quiet {
+                eprintln!(
+                    "run {}/{}: {} = {value}",
+                    k + 1,
+                    spec.values.len(),
+                    spec.label
+                );
+            }
+        },
+    )?;
+    let table = sweep::markdown(&spec, &runs);
+    let (csv_path, md_path) = (dir.join("sweep.csv"), dir.join("sweep.md"));
+    std::fs::write(&csv_path, sweep::csv(&spec, &runs))
+        .map_err(|e| Error::io(csv_path.display(), e))?;
+    std::fs::write(&md_path, &table).map_err(|e| Error::io(md_path.display(), e))?;
+    if !quiet {
+        eprint!("{table}");
+    }
+    println!("{}", csv_path.display());
+    println!("{}", md_path.display());
+    Ok(())
 }
 
 #[allow(clippy::too_many_arguments)]

@@ -58,7 +58,7 @@ pub fn initial_report(sim: &Simulation) -> IncrementReport {
 }
 
 /// Run the load program to its end. The state is written to `file` after every `every`-th
-/// increment and after the last one; the numeric factorisation is refreshed at the same
+/// increment, at the end of every stage and after the last increment; the numeric factorisation is refreshed at the same
 /// points (file or not), so a run resumed from a written increment repeats the same
 /// arithmetic. `on_increment` sees every converged increment.
 pub fn run_to_end(
@@ -83,7 +83,9 @@ pub fn run_to_end(
             }
         };
         on_increment(sim, &report);
-        if report.increment % every.max(1) == 0 || sim.is_finished() {
+        // Every stage's end is written too: a test's estimate starts from it.
+        let stage_end = sim.state.stage_increment == 0;
+        if report.increment % every.max(1) == 0 || stage_end || sim.is_finished() {
             sim.refresh_factorisation();
             if let Some(f) = file.as_deref_mut() {
                 let start = Instant::now();

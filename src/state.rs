@@ -53,6 +53,8 @@ pub struct IncrementReport {
     pub contacts_lost: usize,
     /// Bonds broken in this increment.
     pub bonds_broken: usize,
+    /// Times a step of it was settled by explicit dynamics (no equilibrium nearby).
+    pub settled: usize,
 }
 
 impl State {

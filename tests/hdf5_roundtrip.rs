@@ -208,6 +208,7 @@ fn report(s: &State) -> IncrementReport {
         contacts_made: 1,
         contacts_lost: 0,
         bonds_broken: usize::from(s.increment == 1),
+        settled: 0,
     }
 }
 

@@ -10,6 +10,9 @@ pub enum SlipTangent {
     ElastoPlastic,
     /// The exact derivative of the return map: unsymmetric, for LU (quadratic rate).
     Consistent,
+    /// The elastic `k_s` whether the contact slides or not: a sliding contact unloads with
+    /// it, so it bounds the stiffness in every direction (the masses of settling).
+    Elastic,
 }
 
 /// The fixed properties of one contact, set when it is made.
@@ -100,7 +103,11 @@ pub trait ContactLaw: Sync {
             } else {
                 0.0
             },
-            dfs_ds: 0.0,
+            dfs_ds: if tangent == SlipTangent::Elastic {
+                ks
+            } else {
+                0.0
+            },
         }
     }
 }

@@ -57,8 +57,13 @@ pub struct Curves {
     pub load: Curve,
     /// Stresses (Pa): on the walls and from the contact forces.
     pub stresses: Vec<Curve>,
+    /// Strain of the lateral pair of walls (-, compression positive), when there is one.
+    pub lateral_strain: Option<Curve>,
     /// Volumetric strain (-, compaction positive), when the sample's area is known.
     pub volumetric_strain: Option<Curve>,
+    /// Stage of each row and increments done in it; a row ending a stage is the next
+    /// stage's increment 0.
+    pub stage: Vec<(i64, i64)>,
     /// Grain-grain contacts per grain.
     pub contacts_per_grain: Vec<f64>,
     /// Bonds broken so far.
@@ -73,14 +78,14 @@ impl Curves {
         let applied = history.wall("wall_applied_stress");
         let measured = history.wall("wall_stress");
         let walls: Vec<Wall> = header.walls.iter().map(|h| h.wall(0.0, 0.0, 0.0)).collect();
-        // Gap between a pair of opposite walls at a row, and its strain since the start.
-        let gap = |[i, j]: [usize; 2], row: Option<usize>| {
-            let p = |w: usize| row.map_or(0.0, |r| position[r][w]);
-            -(walls[i].surface(p(i)) + walls[j].surface(p(j)))
+        // Gap between a pair of opposite walls at a row, and its strain since the first row
+        // (a test that starts from a prepared sample starts where the preparation ended).
+        let gap = |[i, j]: [usize; 2], r: usize| {
+            -(walls[i].surface(position[r][i]) + walls[j].surface(position[r][j]))
         };
         let strain = |pair: [usize; 2]| -> Vec<f64> {
             (0..rows)
-                .map(|r| 1.0 - gap(pair, Some(r)) / gap(pair, None))
+                .map(|r| 1.0 - gap(pair, r) / gap(pair, 0))
                 .collect()
         };
         let mut pairs = Vec::new();
@@ -134,7 +139,7 @@ impl Curves {
         };
         let names = |[i, j]: [usize; 2]| format!("{}-{}", walls[i].name, walls[j].name);
 
-        let (axis, load, stresses, volumetric) = if let Some(axial) = axial {
+        let (axis, load, stresses, lateral_strain, volumetric) = if let Some(axial) = axial {
             let lateral = pairs
                 .iter()
                 .copied()
@@ -160,7 +165,14 @@ impl Curves {
                 ),
             ];
             let mut volumetric = None;
+            let mut lateral_strain = None;
             if let Some(lateral) = lateral {
+                lateral_strain = Some(curve(
+                    "lateral_strain",
+                    format!("lateral strain ε_l ({})", names(lateral)),
+                    false,
+                    strain(lateral),
+                ));
                 let (sa, sl) = (on_walls(axial), on_walls(lateral));
                 let (ma, ml) = (
                     macro_along(walls[axial[0]].normal),
@@ -195,8 +207,7 @@ impl Curves {
                 // The area of the rectangle between the two pairs.
                 let values = (0..rows)
                     .map(|r| {
-                        1.0 - gap(axial, Some(r)) * gap(lateral, Some(r))
-                            / (gap(axial, None) * gap(lateral, None))
+                        1.0 - gap(axial, r) * gap(lateral, r) / (gap(axial, 0) * gap(lateral, 0))
                     })
                     .collect();
                 volumetric = Some(curve(
@@ -207,7 +218,7 @@ impl Curves {
                 ));
             }
             let axis = LoadAxis::Strain { axial, lateral };
-            (axis, load, stresses, volumetric)
+            (axis, load, stresses, lateral_strain, volumetric)
         } else {
             let pressure = (0..walls.len()).find(|&w| {
                 let v: Vec<f64> = (0..rows).map(|r| applied[r][w]).collect();
@@ -267,14 +278,21 @@ impl Curves {
                     volume.iter().map(|v| 1.0 - v / volume[0]).collect(),
                 )
             });
-            (axis, load, stresses, volumetric)
+            (axis, load, stresses, None, volumetric)
         };
         Curves {
             increment: history.int("increment").to_vec(),
             axis,
             load,
             stresses,
+            lateral_strain,
             volumetric_strain: volumetric,
+            stage: history
+                .int("stage")
+                .iter()
+                .zip(history.int("stage_increment"))
+                .map(|(&s, &k)| (s, k))
+                .collect(),
             contacts_per_grain: history.float("contacts_per_grain").to_vec(),
             broken_bonds: history
                 .int("broken_bonds")
@@ -343,6 +361,7 @@ pub fn write_csv(
     let mut derived: Vec<(&Curve, &str)> = Vec::new();
     if let LoadAxis::Strain { .. } = curves.axis {
         derived.push((&curves.load, "-"));
+        derived.extend(curves.lateral_strain.iter().map(|c| (c, "-")));
         derived.extend(curves.stresses.iter().map(|c| (c, "Pa")));
     }
     derived.extend(curves.volumetric_strain.iter().map(|c| (c, "-")));
@@ -397,7 +416,12 @@ mod tests {
     fn history(position: [Vec<f64>; 2], applied: [Vec<f64>; 2]) -> History {
         let walls = position[0].len();
         History {
-            ints: vec![("increment", vec![0, 1]), ("broken_bonds", vec![0, 0])],
+            ints: vec![
+                ("increment", vec![0, 1]),
+                ("broken_bonds", vec![0, 0]),
+                ("stage", vec![0, 0]),
+                ("stage_increment", vec![0, 1]),
+            ],
             floats: [
                 "macro_stress_xx",
                 "macro_stress_yy",

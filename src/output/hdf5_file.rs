@@ -692,7 +692,7 @@ pub(crate) fn decode_pair(a: i64, b: i64, grains: usize, walls: usize) -> R<Pair
     Ok(Pair { a, b })
 }
 
-fn timers_mut(t: &mut StageTimers) -> [(&'static str, &mut f64); 8] {
+fn timers_mut(t: &mut StageTimers) -> [(&'static str, &mut f64); 9] {
     [
         ("detection", &mut t.detection),
         ("return_map", &mut t.return_map),
@@ -702,10 +702,11 @@ fn timers_mut(t: &mut StageTimers) -> [(&'static str, &mut f64); 8] {
         ("solve", &mut t.solve),
         ("topology", &mut t.topology),
         ("output", &mut t.output),
+        ("settling", &mut t.settling),
     ]
 }
 
-fn counters_mut(c: &mut Counters) -> [(&'static str, &mut usize); 12] {
+fn counters_mut(c: &mut Counters) -> [(&'static str, &mut usize); 13] {
     [
         ("increments", &mut c.increments),
         ("newton_iterations", &mut c.newton_iterations),
@@ -719,6 +720,7 @@ fn counters_mut(c: &mut Counters) -> [(&'static str, &mut usize); 12] {
         ("contacts_lost", &mut c.contacts_lost),
         ("bonds_broken", &mut c.bonds_broken),
         ("cuts", &mut c.cuts),
+        ("settling_steps", &mut c.settling_steps),
     ]
 }
 

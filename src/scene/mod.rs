@@ -294,6 +294,11 @@ pub struct Stage {
     pub name: String,
     /// Number of load increments in this stage.
     pub increments: usize,
+    /// Walls whose control changes from this stage on, e.g. `control = { top = "displacement" }`
+    /// after an isotropic stage: a wall turned to stress control starts at the stress the
+    /// grains put on it, one turned to displacement control stays where it is.
+    #[serde(default)]
+    pub control: BTreeMap<String, WallControl>,
     /// Stress each named stress-controlled wall reaches at the end of the stage (Pa).
     #[serde(default)]
     pub stress: BTreeMap<String, f64>,

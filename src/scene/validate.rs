@@ -352,11 +352,28 @@ fn walls(scene: &Scene, p: &mut Problems) -> BTreeMap<String, WallControl> {
 }
 
 fn stages(scene: &Scene, walls: &BTreeMap<String, WallControl>, p: &mut Problems) {
+    // The controls as the stages change them.
+    let mut walls = walls.clone();
     for (i, s) in scene.stages.iter().enumerate() {
         let at = format!("stages[{i}]");
         if s.increments == 0 {
             p.push(format!("{at}.increments"), "must be at least 1");
         }
+        for (name, &control) in &s.control {
+            let key = child_key(&format!("{at}.control"), name);
+            if scene.membranes.iter().any(|m| &m.name == name) {
+                p.push(
+                    key,
+                    format!("`{name}` is a membrane: it is always loaded by its pressure"),
+                );
+                continue;
+            }
+            match walls.get_mut(name) {
+                Some(c) => *c = control,
+                None => p.push(key, no_wall(name, &walls)),
+            }
+        }
+        let walls = &walls;
         for (name, &v) in &s.stress {
             let key = child_key(&format!("{at}.stress"), name);
             match walls.get(name) {

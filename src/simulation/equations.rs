@@ -129,6 +129,9 @@ pub struct IncrementEquations<'a> {
     /// equilibrium that needs it to pull then has it just touching, where a contact that
     /// pulled would open and close again from pass to pass.
     pub reopened: &'a [Pair],
+    /// While settling, every contact that is not bonded pushes but does not pull: a grain
+    /// that lost its support must be free to go.
+    pub unilateral: bool,
     /// Unknowns.
     pub dofs: &'a DofMap,
     /// Pattern and slot maps.
@@ -228,7 +231,10 @@ impl IncrementEquations<'_> {
             c.shear_increment,
             self.slip_tangent,
         );
-        if c.overlap < 0.0 && !c.bonded && self.reopened.binary_search(&c.pair).is_ok() {
+        if c.overlap < 0.0
+            && !c.bonded
+            && (self.unilateral || self.reopened.binary_search(&c.pair).is_ok())
+        {
             (c.response.normal_force, c.response.shear_force) = (0.0, 0.0);
         }
         let scale = self.f_ref.max(self.load_scale);

@@ -10,11 +10,12 @@ pub use setup::{initial_contacts, MaterialModel, StageProgram};
 
 use crate::assembly::{DofMap, Pattern};
 use crate::contact::{
-    kinematics, BrokenBond, Configuration, Contact, ContactLaw, ContactSet, Kinematics,
+    kinematics, BrokenBond, Configuration, Contact, ContactLaw, ContactSet, Kinematics, SlipTangent,
 };
 use crate::geometry::{chains, Chain, FriendSet, GrainSet, Pair, WallControl, WallSet};
 use crate::measure::{measure, Measurements, MembraneBoundary};
-use crate::solver::newton::{self, NewtonSettings, SystemMatrix};
+use crate::solver::dynamic::{self, SettleSettings};
+use crate::solver::newton::{self, NewtonOutcome, NewtonSettings, SystemMatrix};
 use crate::solver::stats::{secs, StageTimers};
 use crate::solver::{Equations, LinearKind, LinearSolver, SolverConfig, SolverStats, Strategy};
 use crate::state::{IncrementReport, State};
@@ -199,7 +200,9 @@ impl Simulation {
             stage: self.state.stage,
             ..Default::default()
         };
-        // Apply the increment: the wall moves and stresses of the next step of the stage.
+        // The walls' controls of this stage, then the increment: the wall moves and stresses
+        // of the next step of the stage.
+        self.apply_stage_controls()?;
         let step = self.next_load_step();
         // Solve: Newton + return map + topology, with cut-back.
         self.advance(&step, 0, &mut report)?;
@@ -214,6 +217,34 @@ impl Simulation {
         // Measure.
         report.measurements = self.measure();
         Ok(report)
+    }
+
+    /// Give each wall the control the current stage asks for. A wall turned to stress control
+    /// at the start of a stage takes the stress the grains put on it, so the stage starts in
+    /// equilibrium; met again in the middle of a stage (a resumed run, whose walls come with
+    /// the scene's first controls), it keeps the applied stress read back with it. The
+    /// unknowns change, so the pattern and its factorisation are made anew.
+    fn apply_stage_controls(&mut self) -> Result<(), NumericError> {
+        let control = &self.stages[self.state.stage].control;
+        let walls = &self.state.walls.walls;
+        if control.is_empty() || walls.iter().zip(control).all(|(w, c)| w.control == *c) {
+            return Ok(());
+        }
+        let measured = self.measure().wall_stress;
+        let at_start = self.state.stage_increment == 0;
+        for ((wall, &c), stress) in self.state.walls.walls.iter_mut().zip(control).zip(measured) {
+            if wall.control != c && c == WallControl::Stress && at_start {
+                wall.stress = stress;
+            }
+            wall.control = c;
+        }
+        self.dofs = DofMap::new(
+            self.state.grains.len(),
+            self.material.fixed_rotations,
+            &self.state.walls,
+        );
+        self.linear.invalidate();
+        self.install_pattern()
     }
 
     /// The next increment of the current stage: equal wall moves, and stresses moving in equal
@@ -256,7 +287,15 @@ impl Simulation {
         report: &mut IncrementReport,
     ) -> Result<(), NumericError> {
         let backup = self.state.contacts.clone();
-        match self.solve_step(step, report) {
+        let mut result = self.solve_step(step, report, false);
+        if result.is_err() && depth >= self.config.settle_after_cuts {
+            // No equilibrium near the last one: settle, then solve again.
+            self.state.contacts = backup.clone();
+            self.restore_friends()?;
+            report.settled += 1;
+            result = self.solve_step(step, report, true);
+        }
+        match result {
             Ok((u, change)) => {
                 report.contacts_made += change.made;
                 report.contacts_lost += change.lost;
@@ -294,11 +333,13 @@ impl Simulation {
         }
     }
 
-    /// Newton passes until the contact topology stops changing.
+    /// Newton passes until the contact topology stops changing; when told to `settle`, after
+    /// explicit damped dynamics has brought the grains near rest under the step's loads.
     fn solve_step(
         &mut self,
         step: &LoadStep,
         report: &mut IncrementReport,
+        settle: bool,
     ) -> Result<(Vec<f64>, TopologyChange), NumericError> {
         self.reopened.clear();
         if self.config.strategy == Strategy::Relaxation {
@@ -310,6 +351,21 @@ impl Simulation {
         // Newton's trust radius at the scale of the overlaps.
         self.refresh_chains(false)?;
         self.trust = None;
+        if settle {
+            // Passes of settling, each until rest or until the friends lists must be made
+            // anew; contacts are made between them, lost ones are left to Newton.
+            for _ in 0..REACHES_PER_PASS * self.config.max_topology_passes {
+                let outcome = self.settle(step, &mut u)?;
+                report.topology_passes += 1;
+                self.stats.counters.topology_passes += 1;
+                let change = self.update_topology(step, &u, false)?;
+                total.made += change.made + outcome.contacts_made;
+                self.stats.counters.contacts_made += outcome.contacts_made;
+                if !outcome.at_reach {
+                    break;
+                }
+            }
+        }
         // Passes that end on a Newton solve count against the chatter cap; those that stop
         // for new friends lists are bounded by how far grains can travel.
         let (mut passes, mut reaches) = (0, 0);
@@ -379,6 +435,7 @@ impl Simulation {
             chains: &mut self.chains,
             anchors: &self.anchors,
             reopened: &self.reopened,
+            unilateral: false,
             dofs: &self.dofs,
             pattern: &self.pattern,
             law: self.law.as_ref(),
@@ -436,6 +493,38 @@ impl Simulation {
         self.stats = stats;
         self.values = values;
         self.linear = linear;
+        result
+    }
+
+    /// Explicit damped dynamics on the step's equations from `u` (see [`crate::solver::dynamic`]).
+    fn settle(&mut self, step: &LoadStep, u: &mut [f64]) -> Result<NewtonOutcome, NumericError> {
+        let settings = SettleSettings {
+            tolerance: self.config.settle_tolerance,
+            steps: self.config.settle_steps,
+            max_step: 0.05 * self.config.skin,
+        };
+        let pattern = Arc::clone(&self.pattern);
+        let mut values = std::mem::take(&mut self.values);
+        let mut stats = self.stats;
+        let mut eq = self.equations(step);
+        eq.unilateral = true;
+        eq.slip_tangent = SlipTangent::Elastic;
+        let result = dynamic::settle(
+            &mut eq,
+            SystemMatrix {
+                symbolic: &pattern.symbolic,
+                values: &mut values,
+                diagonal: &pattern.diagonal,
+            },
+            u,
+            &settings,
+            &mut stats,
+        );
+        let timers = eq.timers;
+        stats.timers.return_map += timers.return_map;
+        stats.timers.assembly += timers.assembly;
+        self.stats = stats;
+        self.values = values;
         result
     }
 

@@ -132,6 +132,9 @@ pub struct StageProgram {
     pub slide: Vec<f64>,
     /// Pressure each membrane reaches at the end of the stage (`None`: unchanged).
     pub pressure: Vec<Option<f64>>,
+    /// Control of each wall during the stage: the scene's, as the stages so far changed it
+    /// (empty: the walls keep the controls they have).
+    pub control: Vec<WallControl>,
 }
 
 /// The walls of a scene: the four of `box` (bottom, right, top, left) on the grains' bounding
@@ -230,10 +233,16 @@ pub fn build_membranes(scene: &Scene) -> Vec<Membrane> {
 pub fn build_stages(scene: &Scene, walls: &WallSet, membranes: &[Membrane]) -> Vec<StageProgram> {
     let index = |name: &str| walls.walls.iter().position(|w| w.name == name);
     let membrane = |name: &str| membranes.iter().position(|m| m.name == name);
+    let mut control: Vec<WallControl> = walls.walls.iter().map(|w| w.control).collect();
     scene
         .stages
         .iter()
         .map(|s| {
+            for (name, c) in &s.control {
+                if let Some(w) = index(name) {
+                    control[w] = *c;
+                }
+            }
             let mut stage = StageProgram {
                 name: s.name.clone(),
                 increments: s.increments,
@@ -241,6 +250,7 @@ pub fn build_stages(scene: &Scene, walls: &WallSet, membranes: &[Membrane]) -> V
                 normal_move: vec![0.0; walls.len()],
                 slide: vec![0.0; walls.len()],
                 pressure: vec![None; membranes.len()],
+                control: control.clone(),
             };
             for (name, v) in &s.stress {
                 if let Some(w) = index(name) {

@@ -73,6 +73,18 @@ pub struct SolverConfig {
     /// rotations regular without changing the converged answer. Default 1e-10.
     #[serde(default = "default_lambda_min")]
     pub lambda_min: f64,
+    /// Cut-backs after which a failing increment is first settled by explicit damped dynamics
+    /// and then solved again, before it is cut further: at a limit point (a force chain
+    /// buckling, a crack running) there is no equilibrium near the last one however small
+    /// the step. Above `max_cuts`: never. Default 2.
+    #[serde(default = "default_settle_after_cuts")]
+    pub settle_after_cuts: u32,
+    /// Explicit steps a settling may take. Default 20,000.
+    #[serde(default = "default_settle_steps")]
+    pub settle_steps: usize,
+    /// Relative residual at which settling hands over to Newton. Default 1e-3.
+    #[serde(default = "default_settle_tolerance")]
+    pub settle_tolerance: f64,
 }
 
 fn default_strategy() -> Strategy {
@@ -111,6 +123,15 @@ fn default_skin() -> f64 {
 fn default_lambda_min() -> f64 {
     1e-10
 }
+fn default_settle_after_cuts() -> u32 {
+    2
+}
+fn default_settle_steps() -> usize {
+    20_000
+}
+fn default_settle_tolerance() -> f64 {
+    1e-3
+}
 
 impl Default for SolverConfig {
     fn default() -> Self {
@@ -135,6 +156,7 @@ impl SolverConfig {
         positive("skin", self.skin);
         positive("lambda_min", self.lambda_min);
         positive("truncate", self.truncate);
+        positive("settle_tolerance", self.settle_tolerance);
         if self.sweeps == 0 {
             bad.push(("sweeps".into(), "must be at least 1".into()));
         }

@@ -3,6 +3,7 @@
 //! statistics and the linear-solver wrapper.
 
 pub mod config;
+pub mod dynamic;
 pub mod linear;
 pub mod newton;
 pub mod relaxation;

@@ -21,6 +21,8 @@ pub struct StageTimers {
     pub topology: f64,
     /// Writing results.
     pub output: f64,
+    /// Explicit damped dynamics settling increments that had no equilibrium nearby.
+    pub settling: f64,
 }
 
 /// Counts of the work done.
@@ -50,6 +52,8 @@ pub struct Counters {
     pub bonds_broken: usize,
     /// Increment halvings.
     pub cuts: usize,
+    /// Explicit steps of settling.
+    pub settling_steps: usize,
 }
 
 /// Timers and counters of a run.

@@ -17,6 +17,7 @@ use super::curves::{write_csv, Curve, Curves, LoadAxis};
 use super::h5::input_error;
 use super::hdf5_file::{group_name, read_history, read_increments, read_state};
 use super::xdmf::write_xdmf;
+use crate::estimate::estimate;
 use crate::state::State;
 use crate::Error;
 use charts::{LineChart, Series};
@@ -35,8 +36,9 @@ pub fn default_dir(result: &Path) -> PathBuf {
 }
 
 /// Draw the pictures of the result file `result` into `dir` (default: [`default_dir`]) at
-/// `increment` (default: the last complete one), write the curves as `curves.csv` there and
-/// the XDMF beside the result file. Returns the files written.
+/// `increment` (default: the last complete one), write the curves as `curves.csv` there (and
+/// the macro parameters as `parameters.csv` and `.md` when they can be estimated) and the
+/// XDMF beside the result file. Returns the files written.
 pub fn plot(
     result: &Path,
     dir: Option<&Path>,
@@ -66,6 +68,17 @@ pub fn plot(
     let csv = dir.join("curves.csv");
     write_csv(&csv, &header, &history, &curves)?;
     let mut written = vec![csv];
+    // The macro parameters, when the walls make the run a test they can be read from.
+    if let Ok(parameters) = estimate(&header, &history, &curves) {
+        for (name, text) in [
+            ("parameters.csv", parameters.csv()),
+            ("parameters.md", parameters.markdown()),
+        ] {
+            let path = dir.join(name);
+            std::fs::write(&path, text).map_err(|e| Error::io(path.display(), e))?;
+            written.push(path);
+        }
+    }
 
     for (name, chart) in curve_charts(&header.scene_name, &curves) {
         written.extend(save(&chart, &dir, name)?);
