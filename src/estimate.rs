@@ -34,7 +34,9 @@ pub struct Peak {
     /// Whether the deviator fell after it; if not, the test ended before failure and the peak
     /// is a lower bound.
     pub reached: bool,
-    /// Mobilised friction angle `phi'` (degrees): `sin phi' = (s1 - s3) / (s1 + s3)` (eq. 20).
+    /// Mobilised friction angle `phi'` (degrees): `sin phi' = (s1 - s3) / (s1 + s3)` (eq. 20),
+    /// the friction angle of a material without cohesion; with cohesion, `c'` and `phi'`
+    /// come from several tests ([`mohr_coulomb`]).
     pub friction_angle: f64,
 }
 
@@ -115,7 +117,11 @@ impl Parameters {
             rows.push((format!("peak sigma_1{bound}"), peak.axial_stress, "Pa"));
             rows.push(("sigma_3 at the peak".into(), peak.lateral_stress, "Pa"));
             rows.push(("axial strain at the peak".into(), peak.strain, "-"));
-            rows.push((format!("phi'{bound}"), peak.friction_angle, "deg"));
+            rows.push((
+                format!("phi' mobilised, c' = 0{bound}"),
+                peak.friction_angle,
+                "deg",
+            ));
             rows.push(("dilatancy psi".into(), self.dilatancy_angle, "deg"));
         }
         if let Some(p) = &self.prediction {
@@ -196,6 +202,28 @@ pub fn estimate(
     history: &History,
     curves: &Curves,
 ) -> Result<Parameters, NotEstimated> {
+    let last = *stage_rows(&curves.stage)
+        .last()
+        .ok_or_else(|| NotEstimated("no increment of a stage was written".into()))?;
+    estimate_stage(header, history, curves, last)
+}
+
+/// The macro parameters of every stage they can be read from (a cyclic compression test:
+/// the first loading and each reloading and unloading).
+pub fn estimate_stages(header: &RunHeader, history: &History, curves: &Curves) -> Vec<Parameters> {
+    stage_rows(&curves.stage)
+        .into_iter()
+        .filter_map(|rows| estimate_stage(header, history, curves, rows).ok())
+        .collect()
+}
+
+/// The macro parameters of one stage, given as (first row, last row, stage).
+fn estimate_stage(
+    header: &RunHeader,
+    history: &History,
+    curves: &Curves,
+    (start, end, stage): (usize, usize, usize),
+) -> Result<Parameters, NotEstimated> {
     let (LoadAxis::Strain { .. }, Some(lateral_strain)) = (&curves.axis, &curves.lateral_strain)
     else {
         return Err(NotEstimated(
@@ -214,11 +242,9 @@ pub fn estimate(
         return Err(NotEstimated("no wall stresses".into()));
     };
     let (ea, el) = (&curves.load.values, &lateral_strain.values);
-    let (start, end, stage) = last_stage(&curves.stage)
-        .ok_or_else(|| NotEstimated("no increment of a stage was written".into()))?;
     if end <= start {
         return Err(NotEstimated(
-            "the last stage has fewer than two written states".into(),
+            "the stage has fewer than two written states".into(),
         ));
     }
     let d = |v: &[f64], r: usize| v[r] - v[start];
@@ -305,18 +331,23 @@ pub fn estimate(
     Ok(p)
 }
 
-/// The rows of the last stage that has a written increment: the row it starts from (the last
-/// one written before it, which ended the stage before), the last row, and the stage.
-fn last_stage(stage: &[(i64, i64)]) -> Option<(usize, usize, usize)> {
+/// The rows of every stage that has a written increment: the row it starts from (the last
+/// one written before it, which ended the stage before), its last row, and the stage.
+fn stage_rows(stage: &[(i64, i64)]) -> Vec<(usize, usize, usize)> {
     // A row (s, 0) ends stage s - 1; (s, k > 0) is within stage s.
     let of = |(s, k): (i64, i64)| if k == 0 { s - 1 } else { s };
-    let end = stage.len().checked_sub(1)?;
-    let last = of(stage[end]);
-    if last < 0 {
-        return None;
+    let mut out: Vec<(usize, usize, usize)> = Vec::new();
+    for (r, &row) in stage.iter().enumerate() {
+        let s = of(row);
+        if s < 0 {
+            continue;
+        }
+        match out.last_mut() {
+            Some(last) if last.2 == s as usize => last.1 = r,
+            _ => out.push((r.saturating_sub(1), r, s as usize)),
+        }
     }
-    let start = (0..end).rev().find(|&r| of(stage[r]) < last).unwrap_or(0);
-    Some((start, end, last as usize))
+    out
 }
 
 /// `n_c/v = d^3 n_c / V` at a row: grain-grain contacts per cube of the mean diameter, with
@@ -404,13 +435,13 @@ mod tests {
     }
 
     #[test]
-    fn the_last_stage_starts_at_the_row_that_ended_the_one_before() {
+    fn each_stage_starts_at_the_row_that_ended_the_one_before() {
         // Rows: start (0, 0); stage 0 at 2; its end (1, 0); stage 1 at 3, 6; its end (2, 0).
         let rows = [(0, 0), (0, 2), (1, 0), (1, 3), (1, 6), (2, 0)];
-        assert_eq!(last_stage(&rows), Some((2, 5, 1)));
+        assert_eq!(stage_rows(&rows), vec![(0, 2, 0), (2, 5, 1)]);
         // A run stopped within stage 1.
-        assert_eq!(last_stage(&rows[..5]), Some((2, 4, 1)));
-        assert_eq!(last_stage(&rows[..1]), None);
+        assert_eq!(stage_rows(&rows[..5]), vec![(0, 2, 0), (2, 4, 1)]);
+        assert!(stage_rows(&rows[..1]).is_empty());
     }
 
     #[test]

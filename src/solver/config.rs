@@ -76,7 +76,7 @@ pub struct SolverConfig {
     /// Cut-backs after which a failing increment is first settled by explicit damped dynamics
     /// and then solved again, before it is cut further: at a limit point (a force chain
     /// buckling, a crack running) there is no equilibrium near the last one however small
-    /// the step. Above `max_cuts`: never. Default 2.
+    /// the step. Above `max_cuts`: never. Default 0: settle at the first failure.
     #[serde(default = "default_settle_after_cuts")]
     pub settle_after_cuts: u32,
     /// Explicit steps a settling may take. Default 20,000.
@@ -124,7 +124,7 @@ fn default_lambda_min() -> f64 {
     1e-10
 }
 fn default_settle_after_cuts() -> u32 {
-    2
+    0
 }
 fn default_settle_steps() -> usize {
     20_000

@@ -17,7 +17,8 @@ use super::curves::{write_csv, Curve, Curves, LoadAxis};
 use super::h5::input_error;
 use super::hdf5_file::{group_name, read_history, read_increments, read_state};
 use super::xdmf::write_xdmf;
-use crate::estimate::estimate;
+use crate::estimate::estimate_stages;
+use crate::scene::parse_scene;
 use crate::state::State;
 use crate::Error;
 use charts::{LineChart, Series};
@@ -68,12 +69,31 @@ pub fn plot(
     let csv = dir.join("curves.csv");
     write_csv(&csv, &header, &history, &curves)?;
     let mut written = vec![csv];
-    // The macro parameters, when the walls make the run a test they can be read from.
-    if let Ok(parameters) = estimate(&header, &history, &curves) {
-        for (name, text) in [
-            ("parameters.csv", parameters.csv()),
-            ("parameters.md", parameters.markdown()),
-        ] {
+    // The macro parameters of each stage the walls make a test they can be read from.
+    let parameters = estimate_stages(&header, &history, &curves);
+    if !parameters.is_empty() {
+        let names: Vec<String> = parse_scene(&header.scene_text, "the result's scene")
+            .map(|s| s.stages.into_iter().map(|s| s.name).collect())
+            .unwrap_or_default();
+        let (mut csv, mut md) = (String::new(), String::new());
+        for p in &parameters {
+            let name = names.get(p.stage).map_or("", String::as_str);
+            md.push_str(&format!(
+                "### stage {} {name}\n\n{}\n",
+                p.stage,
+                p.markdown()
+            ));
+            for line in p.csv().lines().skip(usize::from(!csv.is_empty())) {
+                let head = if csv.is_empty() { "stage" } else { "" };
+                let stage = if head.is_empty() {
+                    p.stage.to_string()
+                } else {
+                    head.into()
+                };
+                csv.push_str(&format!("{stage},{line}\n"));
+            }
+        }
+        for (name, text) in [("parameters.csv", csv), ("parameters.md", md)] {
             let path = dir.join(name);
             std::fs::write(&path, text).map_err(|e| Error::io(path.display(), e))?;
             written.push(path);
