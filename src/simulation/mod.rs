@@ -5,7 +5,7 @@ mod equations;
 mod relaxation;
 mod setup;
 
-pub use equations::{anchors, Anchor, IncrementEquations, LoadStep};
+pub use equations::{anchors, membrane_carriers, Anchor, IncrementEquations, LoadStep};
 pub use setup::{initial_contacts, MaterialModel, StageProgram};
 
 use crate::assembly::{DofMap, Pattern};
@@ -52,6 +52,8 @@ pub struct Simulation {
     pair_index: Vec<usize>,
     /// Each membrane's chain for the current increment.
     chains: Vec<Chain>,
+    /// The grains the membranes may lie on in the current increment.
+    carriers: Vec<bool>,
     /// Springs on the rigid-body motions the walls leave free.
     anchors: Vec<Anchor>,
     /// Trust radius the last Newton pass of this increment ended with.
@@ -130,10 +132,12 @@ impl Simulation {
             config.skin * r_mean,
             &state.contacts,
         );
+        let carriers = membrane_carriers(state.grains.len(), &state.contacts.contacts);
         let chains = chains(
             &state.membranes,
             &state.grains.position,
             &state.grains.radius,
+            &carriers,
         );
         let links: Vec<(usize, usize)> = chains.iter().flat_map(Chain::links).collect();
         let pattern = Arc::new(Pattern::build(&friends, &dofs, &state.walls, &links));
@@ -152,7 +156,8 @@ impl Simulation {
             kin: Vec::new(),
             pair_index: Vec::new(),
             chains,
-            anchors: anchors(&state.grains, &state.walls),
+            carriers,
+            anchors: anchors(&state.grains, &state.walls, &state.contacts.contacts),
             trust: None,
             reopened: Vec::new(),
             values: vec![0.0; pattern.nnz()],
@@ -301,6 +306,12 @@ impl Simulation {
         report: &mut IncrementReport,
     ) -> Result<(Vec<f64>, TopologyChange), NumericError> {
         self.reopened.clear();
+        self.anchors = anchors(
+            &self.state.grains,
+            &self.state.walls,
+            &self.state.contacts.contacts,
+        );
+        self.carriers = membrane_carriers(self.state.grains.len(), &self.state.contacts.contacts);
         if self.config.strategy == Strategy::Relaxation {
             return self.relax_step(step, report);
         }
@@ -346,7 +357,9 @@ impl Simulation {
                 .is_some_and(|&r0| outcome.residual < PROGRESS * r0);
             match (outcome.converged, change.any()) {
                 (true, false) => return Ok((u, total)),
-                (false, false) if !progressing && outcome.contacts_made == 0 => {
+                (false, false)
+                    if !progressing && outcome.contacts_made == 0 && !outcome.at_reach =>
+                {
                     return Err(NumericError::NotConverged {
                         increment: self.state.increment + 1,
                         residual: outcome.residual,
@@ -377,6 +390,7 @@ impl Simulation {
             step,
             membranes: &self.state.membranes,
             chains: &mut self.chains,
+            carriers: &self.carriers,
             anchors: &self.anchors,
             reopened: &self.reopened,
             dofs: &self.dofs,
@@ -605,7 +619,12 @@ impl Simulation {
         } else {
             &self.state.grains.position
         };
-        let chains = chains(&self.state.membranes, position, &self.state.grains.radius);
+        let chains = chains(
+            &self.state.membranes,
+            position,
+            &self.state.grains.radius,
+            &self.carriers,
+        );
         // A chain changes with its grains, or with the sample's extent along a side, which
         // sets the load of its end pieces.
         let moved = |a: [f64; 2], b: [f64; 2]| {
