@@ -49,6 +49,7 @@ fn stage(
         normal_move: vec![0.0; walls],
         slide: vec![0.0; walls],
         pressure,
+        until_failure: false,
     }
 }
 

@@ -350,6 +350,19 @@ mod tests {
     }
 
     #[test]
+    fn the_probe_passes_over_a_grain_that_may_not_carry() {
+        let (position, radius) = square(6);
+        let ring = membrane(MembraneShape::Ring { center: [5.0, 5.0] });
+        // Grain 2 on the bottom edge is loose: the chain bridges it, onto its neighbours.
+        let mut carrying = vec![true; radius.len()];
+        carrying[2] = false;
+        let chain = ring.chain(&position, &radius, &carrying);
+        assert!(!chain.grains.contains(&2), "{:?}", chain.grains);
+        let at = chain.grains.iter().position(|&g| g == 1).expect("grain 1");
+        assert_eq!(chain.grains[(at + 1) % chain.grains.len()], 3);
+    }
+
+    #[test]
     fn a_ring_goes_round_anticlockwise_and_pushes_inward() {
         let (position, radius) = square(6);
         let ring = membrane(MembraneShape::Ring { center: [5.0, 5.0] });

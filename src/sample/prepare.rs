@@ -221,6 +221,7 @@ pub fn prepare(
         normal_move: vec![0.0; walls.len()],
         slide: vec![0.0; walls.len()],
         pressure: Vec::new(),
+        until_failure: false,
     };
     let state = State::fresh(grains, walls, contacts, Vec::new());
     // The consistent tangent: near rest many contacts sit on the Coulomb limit, where the

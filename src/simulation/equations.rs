@@ -140,10 +140,9 @@ pub fn anchors(grains: &GrainSet, walls: &WallSet, contacts: &[Contact]) -> Vec<
     }
     // Grains no loose grain reaches (none is loose): as deep as can be.
     let depth = |g: usize| depth[g].min(n);
-    let centroid = grains
-        .position
-        .iter()
-        .fold([0.0; 2], |c, p| [c[0] + p[0] / n as f64, c[1] + p[1] / n as f64]);
+    let centroid = grains.position.iter().fold([0.0; 2], |c, p| {
+        [c[0] + p[0] / n as f64, c[1] + p[1] / n as f64]
+    });
     let offset = |g: usize| {
         let p = grains.position[g];
         [p[0] - centroid[0], p[1] - centroid[1]]

@@ -132,6 +132,9 @@ pub struct StageProgram {
     pub slide: Vec<f64>,
     /// Pressure each membrane reaches at the end of the stage (`None`: unchanged).
     pub pressure: Vec<Option<f64>>,
+    /// Whether an increment that does not converge ends the test as the sample's failure
+    /// rather than as an error (see [`crate::scene::Stage::until_failure`]).
+    pub until_failure: bool,
 }
 
 /// The walls of a scene: the four of `box` (bottom, right, top, left) on the grains' bounding
@@ -241,6 +244,7 @@ pub fn build_stages(scene: &Scene, walls: &WallSet, membranes: &[Membrane]) -> V
                 normal_move: vec![0.0; walls.len()],
                 slide: vec![0.0; walls.len()],
                 pressure: vec![None; membranes.len()],
+                until_failure: s.until_failure,
             };
             for (name, v) in &s.stress {
                 if let Some(w) = index(name) {
