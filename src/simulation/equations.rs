@@ -110,11 +110,11 @@ const ANCHOR_CONTACTS: usize = 4;
 /// inside frictionless circles alone; its translations too with no walls at all. An anchor
 /// holds the whole sample only through its grain's contacts, so it goes on the grains deepest
 /// in the network of contacts that hold (bonded or pressed): counted in contacts from the
-/// nearest grain with fewer than [`ANCHOR_CONTACTS`] of them. The deepest grain, nearest the
-/// centroid among equals, takes the translations; of the grains at least two contacts deep,
-/// the one farthest from the centroid takes the rotation, so its lever is long. Chosen anew
-/// from the committed state at the start of every increment (a spring acts on the move within
-/// the increment only), so a resumed run chooses the same.
+/// nearest grain with fewer than four of them (`ANCHOR_CONTACTS`). The deepest grain,
+/// nearest the centroid among equals, takes the translations; of the grains at least two
+/// contacts deep, the one farthest from the centroid takes the rotation, so its lever is
+/// long. Chosen anew from the committed state at the start of every increment (a spring acts
+/// on the move within the increment only), so a resumed run chooses the same.
 pub fn anchors(grains: &GrainSet, walls: &WallSet, contacts: &[Contact]) -> Vec<Anchor> {
     let straight = walls.walls.iter().any(|w| w.circle.is_none());
     let friction = walls.walls.iter().any(|w| w.friction != 0.0);
