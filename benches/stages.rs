@@ -78,7 +78,7 @@ fn stages(c: &mut Criterion) {
             pressure: Vec::new(),
         };
         let law = material.law();
-        let anchors = anchors(&state.grains, &state.walls);
+        let anchors = anchors(&state.grains, &state.walls, &state.contacts.contacts);
         let mut q = Configuration::at_rest(&state.grains, &state.walls);
         let mut kin = Vec::new();
         let mut chains = Vec::new();
@@ -95,6 +95,7 @@ fn stages(c: &mut Criterion) {
             step: &step,
             membranes: &[],
             chains: &mut chains,
+            carriers: &[],
             anchors: &anchors,
             reopened: &[],
             unilateral: false,

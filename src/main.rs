@@ -4,7 +4,7 @@
 use clap::{Parser, Subcommand};
 use grainstat::output::plot::{default_dir, plot, plot_study};
 use grainstat::output::{info, ResultFile};
-use grainstat::run::{header, initial_report, run_to_end, start};
+use grainstat::run::{header, initial_report, run_to_end, start, RunEnd};
 use grainstat::sample::prepare::{prepare, PrepareSpec};
 use grainstat::sample::{write_csv, write_sample};
 use grainstat::scene::{load_scene, load_solver, parse_scene, parse_solver};
@@ -430,6 +430,12 @@ fn run(
     }
     // Close the file before reading it back; a failed run still has its last state there.
     let closed = file.close();
+    // A stage loaded until failure ends at the failure: said here, and a success.
+    let result = result.map(|end| {
+        if let RunEnd::Failed(failure) = end {
+            eprintln!("{failure}");
+        }
+    });
     if !pictures {
         return result.and(closed);
     }

@@ -8,7 +8,7 @@ use crate::simulation::Simulation;
 use crate::solver::stats::secs;
 use crate::solver::SolverConfig;
 use crate::state::IncrementReport;
-use crate::Error;
+use crate::{Error, NumericError};
 use std::path::Path;
 use std::time::Instant;
 
@@ -57,16 +57,72 @@ pub fn initial_report(sim: &Simulation) -> IncrementReport {
     }
 }
 
-/// Run the load program to its end. The state is written to `file` after every `every`-th
-/// increment, at the end of every stage and after the last increment; the numeric factorisation is refreshed at the same
+/// How a run that did not stop on an error ended.
+#[derive(Debug, Clone, PartialEq)]
+pub enum RunEnd {
+    /// The whole load program was applied.
+    Finished,
+    /// The sample failed in a stage loaded until failure ([`crate::scene::Stage::until_failure`]).
+    Failed(Failure),
+}
+
+/// Where a sample failed: the increment that found no equilibrium, and the loads it carried.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Failure {
+    /// The increment (1-based) that did not converge.
+    pub increment: usize,
+    /// Name of its stage.
+    pub stage: String,
+    /// Why: the solver's error.
+    pub error: NumericError,
+    /// The last increment converged in full (0: none).
+    pub last_increment: usize,
+    /// The highest loads carried in equilibrium, by name (Pa): each membrane's pressure and
+    /// each stress-controlled wall's stress, as the last converged (sub-)step left them. Parts
+    /// of the failing increment that converged before it was cut further count.
+    pub carried: Vec<(String, f64)>,
+}
+
+impl Failure {
+    /// The loads carried, as `name 1.2345e6 Pa` joined by commas.
+    pub fn loads(&self) -> String {
+        self.carried
+            .iter()
+            .map(|(name, v)| format!("{name} {v:.4e} Pa"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+}
+
+impl std::fmt::Display for Failure {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "the sample failed in increment {} (stage '{}'): {}; loads carried in equilibrium: {} \
+             (last complete increment {})",
+            self.increment,
+            self.stage,
+            self.error,
+            self.loads(),
+            self.last_increment
+        )
+    }
+}
+
+/// Run the load program to its end, or, in a stage loaded until failure, to the increment
+/// that finds no equilibrium. The state is written to `file` after every `every`-th
+/// increment, at the end of every stage and after the last increment; the numeric
+/// factorisation is refreshed at the same
 /// points (file or not), so a run resumed from a written increment repeats the same
-/// arithmetic. `on_increment` sees every converged increment.
+/// arithmetic. `on_increment` sees every converged increment. A failed increment writes the
+/// last converged increment if it is not on file yet; it is an error unless its stage is
+/// loaded until failure.
 pub fn run_to_end(
     sim: &mut Simulation,
     mut file: Option<&mut ResultFile>,
     every: usize,
     mut on_increment: impl FnMut(&Simulation, &IncrementReport),
-) -> Result<(), Error> {
+) -> Result<RunEnd, Error> {
     let mut unwritten: Option<IncrementReport> = None;
     while !sim.is_finished() {
         let report = match sim.run_increment() {
@@ -78,6 +134,14 @@ pub fn run_to_end(
                 }
                 if let Some(f) = file.as_deref_mut() {
                     f.write_summary(&sim.stats)?;
+                }
+                let stage = &sim.stages[sim.state.stage];
+                let no_equilibrium = matches!(
+                    err,
+                    NumericError::NotConverged { .. } | NumericError::Singular { .. }
+                );
+                if stage.until_failure && no_equilibrium {
+                    return Ok(RunEnd::Failed(failure(sim, err)));
                 }
                 return Err(err.into());
             }
@@ -98,5 +162,24 @@ pub fn run_to_end(
             unwritten = Some(report);
         }
     }
-    Ok(())
+    Ok(RunEnd::Finished)
+}
+
+/// The failure of the increment after the simulation's committed one.
+fn failure(sim: &Simulation, error: NumericError) -> Failure {
+    let state = &sim.state;
+    let membranes = state.membranes.iter().map(|m| (m.name.clone(), m.pressure));
+    let walls = state
+        .walls
+        .walls
+        .iter()
+        .filter(|w| w.control == crate::geometry::WallControl::Stress)
+        .map(|w| (w.name.clone(), w.stress));
+    Failure {
+        increment: state.increment + 1,
+        stage: sim.stages[state.stage].name.clone(),
+        error,
+        last_increment: state.increment,
+        carried: membranes.chain(walls).collect(),
+    }
 }

@@ -27,7 +27,7 @@ use crate::estimate::{estimate, mohr_coulomb, significant, Parameters};
 use crate::output::curves::Curves;
 use crate::output::plot::plot;
 use crate::output::{read_history, read_increments, read_state, ResultFile};
-use crate::run::{header, initial_report, run_to_end, start};
+use crate::run::{header, initial_report, run_to_end, start, RunEnd};
 use crate::scene::parse_scene;
 use crate::solver::SolverConfig;
 use crate::{Error, InputError};
@@ -156,7 +156,8 @@ pub fn run_sweep(
         file.write_increment(&sim.state, &initial_report(&sim), &sim.stats)?;
         // A run that stops keeps what it computed; the sweep goes on.
         let stopped = match run_to_end(&mut sim, Some(&mut file), scene.output.every, |_, _| {}) {
-            Ok(()) => None,
+            Ok(RunEnd::Finished) => None,
+            Ok(RunEnd::Failed(failure)) => Some(failure.to_string()),
             Err(Error::Numeric(e)) => Some(e.to_string()),
             Err(e) => return Err(e),
         };

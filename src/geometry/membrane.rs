@@ -72,11 +72,17 @@ impl Chain {
 /// bridges any pocket between surface grains that the probe does not fit into.
 const PROBE_RADII: f64 = 2.0;
 
-/// Each membrane's chain on grains at `position` with `radius`.
-pub fn chains(membranes: &[Membrane], position: &[[f64; 2]], radius: &[f64]) -> Vec<Chain> {
+/// Each membrane's chain on grains at `position` with `radius`, over the grains that may
+/// carry it (`carrying`, see [`Membrane::chain`]).
+pub fn chains(
+    membranes: &[Membrane],
+    position: &[[f64; 2]],
+    radius: &[f64],
+    carrying: &[bool],
+) -> Vec<Chain> {
     membranes
         .iter()
-        .map(|m| m.chain(position, radius))
+        .map(|m| m.chain(position, radius, carrying))
         .collect()
 }
 
@@ -85,9 +91,12 @@ impl Membrane {
     /// of the sample ("ball pivoting"), in order, sample on the left. A side starts from its
     /// outermost grain and rolls both ways until the probe turns past the side's ends; a ring
     /// rolls all the way round. The chain follows the grains as they are now, so it is found
-    /// anew whenever they move, pockets and bulges included.
-    pub fn chain(&self, position: &[[f64; 2]], radius: &[f64]) -> Chain {
-        if position.is_empty() {
+    /// anew whenever they move, pockets and bulges included. The probe passes through the
+    /// grains that may not carry the membrane (`carrying[i]` false): loose grains with no
+    /// support to push against, which a pressure would only push into the sample until they
+    /// met one, a motion with no equilibrium on the way.
+    pub fn chain(&self, position: &[[f64; 2]], radius: &[f64], carrying: &[bool]) -> Chain {
+        if !carrying.iter().any(|&c| c) {
             return Chain::default();
         }
         let r_mean = radius.iter().sum::<f64>() / radius.len() as f64;
@@ -96,12 +105,14 @@ impl Membrane {
         let roll = Roll {
             position,
             radius,
+            carrying,
             probe,
             grid: CellGrid::new(position, 2.0 * (r_max + probe)),
         };
         let dot = |u: [f64; 2], v: [f64; 2]| u[0] * v[0] + u[1] * v[1];
         let outermost = |reach: &dyn Fn(usize) -> f64| {
             (0..position.len())
+                .filter(|&i| carrying[i])
                 .max_by(|&a, &b| reach(a).total_cmp(&reach(b)))
                 .expect("grains")
         };
@@ -189,6 +200,8 @@ impl Chain {
 struct Roll<'a> {
     position: &'a [[f64; 2]],
     radius: &'a [f64],
+    /// Grains the probe rests on; it passes through the others.
+    carrying: &'a [bool],
     probe: f64,
     grid: CellGrid,
 }
@@ -241,7 +254,7 @@ impl Roll<'_> {
             let q = self.position[j];
             let b = self.radius[j] + self.probe;
             let d = (q[0] - p[0]).hypot(q[1] - p[1]);
-            if j == i || d >= a + b || d <= (a - b).abs() {
+            if j == i || !self.carrying[j] || d >= a + b || d <= (a - b).abs() {
                 continue;
             }
             // The probe touches `j` at angles alpha -+ beta about `i`; rolling in `sense` it
@@ -310,7 +323,7 @@ mod tests {
         let left = membrane(MembraneShape::Side {
             outward: [-1.0, 0.0],
         });
-        let chain = left.chain(&position, &radius);
+        let chain = left.chain(&position, &radius, &vec![true; radius.len()]);
         // Left column, walked downwards (sample on the left of the walk).
         assert_eq!(chain.grains, vec![20, 15, 10, 5, 0]);
         assert_eq!(chain.extent, [-9.0, 1.0]);
@@ -330,17 +343,30 @@ mod tests {
         let left = membrane(MembraneShape::Side {
             outward: [-1.0, 0.0],
         });
-        let chain = left.chain(&position, &radius);
+        let chain = left.chain(&position, &radius, &vec![true; radius.len()]);
         assert!(chain.grains.contains(&10));
         // The probe (two radii) does not reach between 10 and 0 to touch 5.
         assert!(!chain.grains.contains(&5), "{:?}", chain.grains);
     }
 
     #[test]
+    fn the_probe_passes_over_a_grain_that_may_not_carry() {
+        let (position, radius) = square(6);
+        let ring = membrane(MembraneShape::Ring { center: [5.0, 5.0] });
+        // Grain 2 on the bottom edge is loose: the chain bridges it, onto its neighbours.
+        let mut carrying = vec![true; radius.len()];
+        carrying[2] = false;
+        let chain = ring.chain(&position, &radius, &carrying);
+        assert!(!chain.grains.contains(&2), "{:?}", chain.grains);
+        let at = chain.grains.iter().position(|&g| g == 1).expect("grain 1");
+        assert_eq!(chain.grains[(at + 1) % chain.grains.len()], 3);
+    }
+
+    #[test]
     fn a_ring_goes_round_anticlockwise_and_pushes_inward() {
         let (position, radius) = square(6);
         let ring = membrane(MembraneShape::Ring { center: [5.0, 5.0] });
-        let chain = ring.chain(&position, &radius);
+        let chain = ring.chain(&position, &radius, &vec![true; radius.len()]);
         // The 20 grains of the outer square, once each.
         assert_eq!(chain.grains.len(), 20);
         let mut sorted = chain.grains.clone();

@@ -222,6 +222,7 @@ pub fn prepare(
         slide: vec![0.0; walls.len()],
         pressure: Vec::new(),
         control: Vec::new(),
+        until_failure: false,
     };
     let state = State::fresh(grains, walls, contacts, Vec::new());
     // The consistent tangent: near rest many contacts sit on the Coulomb limit, where the

@@ -5,7 +5,7 @@ mod equations;
 mod relaxation;
 mod setup;
 
-pub use equations::{anchors, Anchor, IncrementEquations, LoadStep};
+pub use equations::{anchors, membrane_carriers, Anchor, IncrementEquations, LoadStep};
 pub use setup::{initial_contacts, MaterialModel, StageProgram};
 
 use crate::assembly::{DofMap, Pattern};
@@ -53,6 +53,8 @@ pub struct Simulation {
     pair_index: Vec<usize>,
     /// Each membrane's chain for the current increment.
     chains: Vec<Chain>,
+    /// The grains the membranes may lie on in the current increment.
+    carriers: Vec<bool>,
     /// Springs on the rigid-body motions the walls leave free.
     anchors: Vec<Anchor>,
     /// Trust radius the last Newton pass of this increment ended with.
@@ -60,6 +62,12 @@ pub struct Simulation {
     /// Pairs whose contact opened in this increment, sorted: made again, they push but do not
     /// pull (see [`IncrementEquations::reopened`]).
     reopened: Vec<Pair>,
+    /// Whether the rest of this increment is solved with the consistent tangent (see
+    /// [`Simulation::solve_step`]).
+    consistent: bool,
+    /// The LU solver of the consistent tangent when the scene's own solver is Cholesky:
+    /// analysed on the current pattern when first needed.
+    lu: Option<LinearSolver>,
 }
 
 /// Share of the half skin past which the friends lists are made anew: below the share a
@@ -131,10 +139,12 @@ impl Simulation {
             config.skin * r_mean,
             &state.contacts,
         );
+        let carriers = membrane_carriers(state.grains.len(), &state.contacts.contacts);
         let chains = chains(
             &state.membranes,
             &state.grains.position,
             &state.grains.radius,
+            &carriers,
         );
         let links: Vec<(usize, usize)> = chains.iter().flat_map(Chain::links).collect();
         let pattern = Arc::new(Pattern::build(&friends, &dofs, &state.walls, &links));
@@ -153,9 +163,12 @@ impl Simulation {
             kin: Vec::new(),
             pair_index: Vec::new(),
             chains,
-            anchors: anchors(&state.grains, &state.walls),
+            carriers,
+            anchors: anchors(&state.grains, &state.walls, &state.contacts.contacts),
             trust: None,
             reopened: Vec::new(),
+            consistent: false,
+            lu: None,
             values: vec![0.0; pattern.nnz()],
             pattern,
             friends,
@@ -190,6 +203,9 @@ impl Simulation {
     /// when the state is written: a run resumed from there then repeats the same arithmetic.
     pub fn refresh_factorisation(&mut self) {
         self.linear.invalidate();
+        if let Some(lu) = &mut self.lu {
+            lu.invalidate();
+        }
     }
 
     /// One load increment, as the pipeline reads: apply the increment, then solve it (Newton
@@ -335,6 +351,13 @@ impl Simulation {
 
     /// Newton passes until the contact topology stops changing; when told to `settle`, after
     /// explicit damped dynamics has brought the grains near rest under the step's loads.
+    ///
+    /// With the symmetric tangent (Cholesky, elasto-plastic slip) a pass that runs out of
+    /// iterations hands the rest of the increment to the consistent tangent (LU). The
+    /// elasto-plastic tangent leaves out how a sliding contact's friction follows its normal
+    /// force; where that is what holds a grain (one squeezed between two contacts it slides
+    /// on, carrying next to nothing), Newton then converges only linearly, by a few percent
+    /// per iteration (measured on the freed cylinder). The answer is the same either way.
     fn solve_step(
         &mut self,
         step: &LoadStep,
@@ -342,6 +365,12 @@ impl Simulation {
         settle: bool,
     ) -> Result<(Vec<f64>, TopologyChange), NumericError> {
         self.reopened.clear();
+        self.anchors = anchors(
+            &self.state.grains,
+            &self.state.walls,
+            &self.state.contacts.contacts,
+        );
+        self.carriers = membrane_carriers(self.state.grains.len(), &self.state.contacts.contacts);
         if self.config.strategy == Strategy::Relaxation {
             return self.relax_step(step, report);
         }
@@ -351,6 +380,7 @@ impl Simulation {
         // Newton's trust radius at the scale of the overlaps.
         self.refresh_chains(false)?;
         self.trust = None;
+        self.consistent = false;
         if settle {
             // Passes of settling, each until rest or until the friends lists must be made
             // anew; contacts are made between them, lost ones are left to Newton.
@@ -395,14 +425,22 @@ impl Simulation {
             total.made += change.made + outcome.contacts_made;
             total.lost += change.lost;
             total.broken += change.broken;
-            // A pass that ran out of iterations while |R| still fell goes on as another.
-            let progressing = outcome
-                .history
-                .first()
-                .is_some_and(|&r0| outcome.residual < PROGRESS * r0);
+            // A pass that ran out of iterations while |R| still fell goes on as another; with
+            // the symmetric tangent, the next one has the consistent tangent.
+            let switched = !outcome.converged
+                && !outcome.at_reach
+                && outcome.iterations >= self.config.max_iterations
+                && self.switch_to_consistent();
+            let progressing = switched
+                || outcome
+                    .history
+                    .first()
+                    .is_some_and(|&r0| outcome.residual < PROGRESS * r0);
             match (outcome.converged, change.any()) {
                 (true, false) => return Ok((u, total)),
-                (false, false) if !progressing && outcome.contacts_made == 0 => {
+                (false, false)
+                    if !progressing && outcome.contacts_made == 0 && !outcome.at_reach =>
+                {
                     return Err(NumericError::NotConverged {
                         increment: self.state.increment + 1,
                         residual: outcome.residual,
@@ -422,6 +460,19 @@ impl Simulation {
         })
     }
 
+    /// Solve the rest of the increment with the consistent tangent, if the scene's solver is
+    /// the symmetric one and has not switched yet. Returns whether it switched.
+    fn switch_to_consistent(&mut self) -> bool {
+        if self.consistent || self.config.linear != LinearKind::Cholesky {
+            return false;
+        }
+        self.consistent = true;
+        if let Some(lu) = &mut self.lu {
+            lu.invalidate();
+        }
+        true
+    }
+
     fn equations<'a>(&'a mut self, step: &'a LoadStep) -> IncrementEquations<'a> {
         IncrementEquations {
             grains: &self.state.grains,
@@ -433,14 +484,19 @@ impl Simulation {
             step,
             membranes: &self.state.membranes,
             chains: &mut self.chains,
+            carriers: &self.carriers,
             anchors: &self.anchors,
             reopened: &self.reopened,
             unilateral: false,
             dofs: &self.dofs,
             pattern: &self.pattern,
             law: self.law.as_ref(),
-            slip_tangent: self.config.slip_tangent,
-            symmetric: self.config.linear == LinearKind::Cholesky,
+            slip_tangent: if self.consistent {
+                SlipTangent::Consistent
+            } else {
+                self.config.slip_tangent
+            },
+            symmetric: !self.consistent && self.config.linear == LinearKind::Cholesky,
             depth: self.depth,
             r_mean: self.r_mean,
             q: &mut self.q,
@@ -472,8 +528,24 @@ impl Simulation {
         // is factorised in it.
         let pattern = Arc::clone(&self.pattern);
         let mut values = std::mem::take(&mut self.values);
-        let mut linear = std::mem::replace(&mut self.linear, LinearSolver::new(self.config.linear));
         let mut stats = self.stats;
+        // The scene's solver, or the LU one of the consistent tangent (analysed when first
+        // needed on this pattern).
+        let lu = self.consistent && self.config.linear != LinearKind::Lu;
+        if lu && self.lu.is_none() {
+            let mut solver = LinearSolver::new(LinearKind::Lu);
+            solver
+                .analyse(&pattern.symbolic, &mut stats)
+                .map_err(|e| NumericError::Singular { detail: e.0 })?;
+            self.lu = Some(solver);
+        }
+        let mut linear = match (lu, self.lu.take()) {
+            (true, Some(solver)) => solver,
+            (_, kept) => {
+                self.lu = kept;
+                std::mem::replace(&mut self.linear, LinearSolver::new(self.config.linear))
+            }
+        };
         let mut eq = self.equations(step);
         let result = newton::solve(
             &mut eq,
@@ -492,7 +564,11 @@ impl Simulation {
         stats.timers.assembly += timers.assembly;
         self.stats = stats;
         self.values = values;
-        self.linear = linear;
+        if linear.kind() == self.config.linear {
+            self.linear = linear;
+        } else {
+            self.lu = Some(linear);
+        }
         result
     }
 
@@ -694,7 +770,12 @@ impl Simulation {
         } else {
             &self.state.grains.position
         };
-        let chains = chains(&self.state.membranes, position, &self.state.grains.radius);
+        let chains = chains(
+            &self.state.membranes,
+            position,
+            &self.state.grains.radius,
+            &self.carriers,
+        );
         // A chain changes with its grains, or with the sample's extent along a side, which
         // sets the load of its end pieces.
         let moved = |a: [f64; 2], b: [f64; 2]| {
@@ -714,6 +795,8 @@ impl Simulation {
 
     /// Symbolic factorisation of the pattern, and each contact's block in it.
     fn analyse_pattern(&mut self) -> Result<(), NumericError> {
+        // The consistent tangent's LU, if any, is analysed anew when next needed.
+        self.lu = None;
         self.linear
             .analyse(&self.pattern.symbolic, &mut self.stats)
             .map_err(|e| NumericError::Singular { detail: e.0 })?;

@@ -135,6 +135,9 @@ pub struct StageProgram {
     /// Control of each wall during the stage: the scene's, as the stages so far changed it
     /// (empty: the walls keep the controls they have).
     pub control: Vec<WallControl>,
+    /// Whether an increment that does not converge ends the test as the sample's failure
+    /// rather than as an error (see [`crate::scene::Stage::until_failure`]).
+    pub until_failure: bool,
 }
 
 /// The walls of a scene: the four of `box` (bottom, right, top, left) on the grains' bounding
@@ -251,6 +254,7 @@ pub fn build_stages(scene: &Scene, walls: &WallSet, membranes: &[Membrane]) -> V
                 slide: vec![0.0; walls.len()],
                 pressure: vec![None; membranes.len()],
                 control: control.clone(),
+                until_failure: s.until_failure,
             };
             for (name, v) in &s.stress {
                 if let Some(w) = index(name) {
