@@ -4,9 +4,10 @@
 
 .PHONY: run test deps
 
-# The main job: the default scene, from a clean checkout.
+# The main job: the thick-walled cylinder test from sample preparation to breakout.
 run: deps
-	cargo run --release -- run examples/crystal-biaxial.toml
+	cargo run --release -- generate examples/cylinder-sample.toml -o samples/cylinder-1000.h5
+	cargo run --release -- run examples/cylinder-test.toml
 
 # The whole test suite, plus the formatting, lint and documentation checks.
 test: deps

@@ -400,8 +400,17 @@ fn run(
             .expect("valid template"),
     );
     bar.set_position(sim.state.increment as u64);
+    // Lines go above the bar on a terminal, and straight to standard error into a log file
+    // (where the bar is not drawn and would swallow them).
+    let say = |line: String| {
+        if bar.is_hidden() {
+            eprintln!("{line}");
+        } else {
+            bar.println(line);
+        }
+    };
     if !quiet {
-        bar.println(format!(
+        say(format!(
             "{}: {} grains, {} walls, {} unknowns, {} increments -> {}",
             sim.name,
             sim.state.grains.len(),
@@ -419,7 +428,7 @@ fn run(
             sim.state.contacts.len()
         ));
         if !quiet {
-            bar.println(log_line(sim, r));
+            say(log_line(sim, r));
         }
     });
     bar.finish_and_clear();

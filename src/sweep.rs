@@ -23,7 +23,7 @@ use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
 
-use crate::estimate::{estimate, mohr_coulomb, significant, Parameters};
+use crate::estimate::{estimate, mohr_coulomb, significant, Parameters, Peak};
 use crate::output::curves::Curves;
 use crate::output::plot::plot;
 use crate::output::{read_history, read_increments, read_state, ResultFile};
@@ -208,7 +208,7 @@ pub fn markdown(spec: &SweepSpec, runs: &[SweepRun]) -> String {
                 let f = |v: f64| significant(v);
                 let peak = p.peak.as_ref();
                 let bound = |text: String| match peak {
-                    Some(pk) if !pk.reached => format!("≥ {text}"),
+                    Some(pk) if !failed(run, pk) => format!("≥ {text}"),
                     _ => text,
                 };
                 let _ = writeln!(
@@ -235,15 +235,15 @@ pub fn markdown(spec: &SweepSpec, runs: &[SweepRun]) -> String {
     }
     let peaks: Vec<(f64, f64)> = runs
         .iter()
-        .filter_map(|r| r.parameters.as_ref().ok()?.peak)
-        .filter(|p| p.reached)
-        .map(|p| (p.lateral_stress, p.axial_stress))
+        .filter_map(|r| Some((r, r.parameters.as_ref().ok()?.peak?)))
+        .filter(|(r, p)| failed(r, p))
+        .map(|(_, p)| (p.lateral_stress, p.axial_stress))
         .collect();
     match mohr_coulomb(&peaks) {
         Some((c, phi)) => {
             let _ = writeln!(
                 text,
-                "\nMohr-Coulomb fit (eq. A.94) over the {} peaks reached: c' = {} Pa, phi' = {} deg",
+                "\nMohr-Coulomb fit (eq. A.94) over the {} peaks: c' = {} Pa, phi' = {} deg",
                 peaks.len(),
                 significant(c),
                 significant(phi)
@@ -263,7 +263,7 @@ pub fn markdown(spec: &SweepSpec, runs: &[SweepRun]) -> String {
 /// The sweep's table as CSV, one row per run.
 pub fn csv(spec: &SweepSpec, runs: &[SweepRun]) -> String {
     let mut text = format!(
-        "{},young,young_predicted,poisson_begin,poisson_end,peak_axial_stress,peak_lateral_stress,peak_reached,friction_angle,dilatancy_angle,contact_density,stopped\n",
+        "{},young,young_predicted,poisson_begin,poisson_end,peak_axial_stress,peak_lateral_stress,failed,friction_angle,dilatancy_angle,contact_density,stopped\n",
         spec.label.replace(',', ";")
     );
     for run in runs {
@@ -283,7 +283,7 @@ pub fn csv(spec: &SweepSpec, runs: &[SweepRun]) -> String {
                     v(Some(p.poisson_end)),
                     v(peak.map(|k| k.axial_stress)),
                     v(peak.map(|k| k.lateral_stress)),
-                    peak.map_or(String::new(), |k| k.reached.to_string()),
+                    peak.map_or(String::new(), |k| failed(run, &k).to_string()),
                     v(peak.map(|k| k.friction_angle)),
                     v(Some(p.dilatancy_angle)),
                     v(Some(p.contact_density)),
@@ -295,6 +295,12 @@ pub fn csv(spec: &SweepSpec, runs: &[SweepRun]) -> String {
         let _ = writeln!(text, "{},{row},\"{stopped}\"", value_text(&run.value));
     }
     text
+}
+
+/// Whether a run's peak is its failure: the deviator fell after it, or the run stopped
+/// there because the sample found no equilibrium beyond it.
+fn failed(run: &SweepRun, peak: &Peak) -> bool {
+    peak.reached || run.stopped.is_some()
 }
 
 fn value_text(v: &toml::Value) -> String {
