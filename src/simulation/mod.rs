@@ -560,10 +560,7 @@ impl Simulation {
             &mut stats,
         );
         let timers = eq.timers;
-        stats.timers.return_map += timers.return_map;
-        stats.timers.assembly += timers.assembly;
-        self.stats = stats;
-        self.values = values;
+        self.take_back(stats, timers, values);
         if linear.kind() == self.config.linear {
             self.linear = linear;
         } else {
@@ -597,11 +594,17 @@ impl Simulation {
             &mut stats,
         );
         let timers = eq.timers;
+        self.take_back(stats, timers, values);
+        result
+    }
+
+    /// Take back the counters and the value buffer a solve worked on, with the time its
+    /// equations spent in the return map and the assembly.
+    fn take_back(&mut self, mut stats: SolverStats, timers: StageTimers, values: Vec<f64>) {
         stats.timers.return_map += timers.return_map;
         stats.timers.assembly += timers.assembly;
         self.stats = stats;
         self.values = values;
-        result
     }
 
     /// The trust radius the first Newton pass of an increment starts with, in mean radii: the
