@@ -259,6 +259,13 @@ fn impossible_samples_are_exit_status_2() {
             vec!["dense-limit.toml:15", "sample.solid_fraction"],
         ),
         (
+            // Sand grains pressed several radii into one another: growth did not converge
+            // (exit 3) at 1e10 Pa, and at 1e30 Pa it aborted allocating 34 GB of grid cells.
+            "crushing.toml",
+            sample_scene("").replace("stress = 1e5", "stress = 1e10"),
+            vec!["crushing.toml:14", "sample.stress", "press the grains"],
+        ),
+        (
             "no-sample.toml",
             BASE.to_string(),
             vec!["no-sample.toml", "[sample]"],

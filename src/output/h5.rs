@@ -70,6 +70,10 @@ pub(crate) fn read_in_child(path: &Path, read: impl FnOnce() -> bool) -> Result<
         // file; no lock the child needs is held by another thread (see above).
         let pid = unsafe { libc::fork() };
         if pid == 0 {
+            // Gone by itself after the time limit, even if this process is killed first
+            // and no one is left to kill it (SIGALRM ends a process).
+            // SAFETY: only sets this process's timer.
+            unsafe { libc::alarm(limit.as_secs() as libc::c_uint + 1) };
             let code = match std::panic::catch_unwind(std::panic::AssertUnwindSafe(read)) {
                 Ok(_) => 0,
                 Err(_) => 1,

@@ -26,6 +26,9 @@ pub(crate) fn validate(scene: &Scene) -> Vec<(String, String)> {
         // A scene that prepares a sample has no grains yet.
         Some(spec) => {
             sample(spec, &mut p);
+            if p.0.is_empty() {
+                crushing_stress(spec, &scene.material, &mut p);
+            }
             if grain_problems(&scene.grains).is_empty() {
                 p.push(
                     "grains",
@@ -94,6 +97,39 @@ fn sample(s: &crate::scene::SampleSpec, p: &mut Problems) {
     }
     if let Err(e) = s.distribution.check() {
         p.push("sample.distribution", e.to_string());
+    }
+}
+
+/// The deepest overlap a sample's target stress may press grains into, as a fraction of the
+/// mean radius.
+const MAX_SAMPLE_OVERLAP: f64 = 0.25;
+
+/// A sample's target stress must leave the grains' overlaps small, as the contact laws
+/// assume: a contact carrying the stress on a grain's section, `F = sigma 2 rbar D`, must
+/// overlap by at most [`MAX_SAMPLE_OVERLAP`] of the mean radius (`F / k_n`, or Hertz with
+/// `E* = G / (1 - nu)` and `R* = rbar / 2`). Far beyond that, growth runs away and ends in
+/// NaN.
+fn crushing_stress(s: &crate::scene::SampleSpec, m: &Material, p: &mut Problems) {
+    let r = s.distribution.mean_radius;
+    let force = s.stress * 2.0 * r * m.depth.unwrap_or(2.0 * r);
+    let overlap = match (m.law, m.normal_stiffness, m.shear_modulus) {
+        (LawKind::Linear, Some(k), _) => force / k,
+        (LawKind::Hertz, _, Some(g)) => {
+            let e = g / (1.0 - m.poisson);
+            (3.0 * force / (4.0 * e * (r / 2.0).sqrt())).powf(2.0 / 3.0)
+        }
+        _ => return,
+    };
+    if overlap > MAX_SAMPLE_OVERLAP * r {
+        p.push(
+            "sample.stress",
+            format!(
+                "would press the grains {:.2e} of their mean radius into one another (a \
+                 contact carrying the stress on a grain's section); the contact laws hold for \
+                 overlaps up to {MAX_SAMPLE_OVERLAP}: lower the stress or stiffen the material",
+                overlap / r
+            ),
+        );
     }
 }
 
