@@ -16,6 +16,7 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 /// Values that have broken parsers before: non-finite, signed zero, extremes, wrong types.
+#[rustfmt::skip]
 const VALUES: &[&str] = &[
     "nan", "-nan", "inf", "-inf", "+inf", "0", "-0.0", "0.0", "1", "-1", "1e308", "1e-308",
     "5e-324", "1.7976931348623157e308", "18446744073709551615", "9223372036854775807",
@@ -26,6 +27,7 @@ const VALUES: &[&str] = &[
 ];
 
 /// Keys and table headers of the scene format, to splice in.
+#[rustfmt::skip]
 const KEYS: &[&str] = &[
     "name", "law", "normal_stiffness", "shear_modulus", "poisson", "friction", "cohesion",
     "bonded", "fixed_rotations", "depth", "cohesion_radius", "file", "x", "y", "r", "crystal",
@@ -73,7 +75,9 @@ fn mutate(text: &mut Vec<u8>, rng: &mut ChaCha8Rng, pool: &[String]) {
         }
         1 => {
             let i = at(rng);
-            let b = *b"=[]{}\",.\n#'-+e0123456789 ".get(rng.random_range(0..26)).unwrap_or(&b'x');
+            let b = *b"=[]{}\",.\n#'-+e0123456789 "
+                .get(rng.random_range(0..26))
+                .unwrap_or(&b'x');
             text.insert(i, b);
         }
         2 if len > 0 => {
