@@ -79,6 +79,9 @@ enum Command {
         /// Solver settings (TOML) for the final equilibrium.
         #[arg(long)]
         solver: Option<PathBuf>,
+        /// Worker threads (the sample does not depend on it).
+        #[arg(long, default_value_t = 1)]
+        threads: usize,
         /// No progress bar and no summary.
         #[arg(long)]
         quiet: bool,
@@ -197,8 +200,10 @@ fn main() -> ExitCode {
             output,
             csv,
             solver,
+            threads,
             quiet,
-        } => generate(&scene, &output, csv.as_deref(), solver.as_deref(), quiet),
+        } => thread_pool(threads)
+            .and_then(|()| generate(&scene, &output, csv.as_deref(), solver.as_deref(), quiet)),
         Command::Plot {
             file,
             output,
@@ -249,6 +254,14 @@ fn main() -> ExitCode {
             })
         }
     }
+}
+
+/// Run rayon's work on `threads` threads (at least one).
+fn thread_pool(threads: usize) -> Result<(), Error> {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads.max(1))
+        .build_global()
+        .map_err(|e| Error::io("thread pool", e))
 }
 
 /// Solver settings from a file, or the defaults (and their TOML, stored with the results).
@@ -343,10 +356,7 @@ fn run(
     quiet: bool,
     pictures: bool,
 ) -> Result<(), Error> {
-    rayon::ThreadPoolBuilder::new()
-        .num_threads(threads.max(1))
-        .build_global()
-        .map_err(|e| Error::io("thread pool", e))?;
+    thread_pool(threads)?;
     let scene_file = scene_path.display().to_string();
     let (scene, scene_text) = load_scene(scene_path)?;
     let (config, solver_text) = solver_settings(solver_path)?;
@@ -437,18 +447,17 @@ fn run(
         eprintln!("{}", summary(&sim));
         eprintln!("results: {}", path.display());
     }
-    // Close the file before reading it back; a failed run still has its last state there.
-    let closed = file.close();
-    // A stage loaded until failure ends at the failure: said here, and a success.
+    // A failed run still has its last state on file. A stage loaded until failure ends at
+    // the failure: said here, and a success.
     let result = result.map(|end| {
         if let RunEnd::Failed(failure) = end {
             eprintln!("{failure}");
         }
     });
     if !pictures {
-        return result.and(closed);
+        return result;
     }
-    let plotted = closed.and_then(|()| plot(&path, None, None));
+    let plotted = plot(&path, None, None);
     match (result, plotted) {
         (Ok(()), Ok(files)) => {
             if !quiet {

@@ -128,12 +128,13 @@ pub fn run_to_end(
         let report = match sim.run_increment() {
             Ok(report) => report,
             Err(err) => {
-                // Keep what was computed: the last converged state, if it is not on file yet.
-                if let (Some(f), Some(last)) = (file.as_deref_mut(), unwritten.take()) {
-                    f.write_increment(&sim.state, &last, &sim.stats)?;
-                }
+                // Keep what was computed: the last converged state, if it is not on file yet
+                // (the summary goes with it), else the summary of the work spent.
                 if let Some(f) = file.as_deref_mut() {
-                    f.write_summary(&sim.stats)?;
+                    match unwritten.take() {
+                        Some(last) => f.write_increment(&sim.state, &last, &sim.stats)?,
+                        None => f.write_summary(&sim.stats)?,
+                    }
                 }
                 let stage = &sim.stages[sim.state.stage];
                 let no_equilibrium = matches!(
@@ -154,7 +155,6 @@ pub fn run_to_end(
             if let Some(f) = file.as_deref_mut() {
                 let start = Instant::now();
                 f.write_increment(&sim.state, &report, &sim.stats)?;
-                f.write_summary(&sim.stats)?;
                 sim.stats.timers.output += secs(start);
             }
             unwritten = None;

@@ -161,7 +161,6 @@ pub fn run_sweep(
             Err(Error::Numeric(e)) => Some(e.to_string()),
             Err(e) => return Err(e),
         };
-        file.close()?;
         plot(&result, None, None)?;
         runs.push(SweepRun {
             value: value.clone(),

@@ -305,7 +305,7 @@ fn resume_takes_the_last_complete_increment() {
     // Going on from there writes increment 3 again, as the uninterrupted run did.
     let s = &states[2];
     file.write_increment(s, &report(s), &stats(3)).unwrap();
-    file.close().unwrap();
+    drop(file);
     assert_eq!(read_increments(&path).unwrap(), vec![1, 2, 3]);
     assert_eq!(&read_state(&path, 3).unwrap().1, s);
     assert_eq!(history_increments(&path), vec![1, 2, 3]);

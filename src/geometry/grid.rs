@@ -14,7 +14,9 @@ pub struct CellGrid {
 }
 
 impl CellGrid {
-    /// A grid of cells `cell` wide over the given centres.
+    /// A grid of cells at least `cell` wide over the given centres; wider where the centres
+    /// are spread so far (grains flung apart by a run gone wrong) that the cells would not fit
+    /// in memory.
     pub fn new(position: &[[f64; 2]], cell: f64) -> CellGrid {
         let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
         for p in position {
@@ -26,6 +28,9 @@ impl CellGrid {
         if position.is_empty() {
             (lo, hi) = ([0.0; 2], [0.0; 2]);
         }
+        // At most 16 cells per grain beyond 2^24 (128 MB of cell starts).
+        let most = 16.0 * position.len() as f64 + (1u64 << 24) as f64;
+        let cell = cell.max(((hi[0] - lo[0]) * (hi[1] - lo[1]) / most).sqrt());
         let count = |k: usize| (((hi[k] - lo[k]) / cell).floor() as usize + 1).min(1 << 16);
         let mut grid = CellGrid {
             origin: lo,

@@ -53,6 +53,90 @@ pub(crate) fn write_error(path: &Path) -> impl FnOnce(Fail) -> Error + '_ {
     move |f| Error::io(path.display(), f.0)
 }
 
+/// Run `read` on a file the user named in a child process first. libhdf5 can crash (seen:
+/// SIGSEGV in `H5HG_read`) or loop for ever (seen: in `H5HG__protect`) on a corrupt file,
+/// which would end or hang the whole program with no message; in a child it only ends the
+/// child. A child killed by a signal, or not done within 20 s (plus a second per 10 MB),
+/// makes the file bad input; otherwise the caller reads the file itself, and any error it
+/// meets is reported as usual. `read`'s answer does not matter, only that it returns.
+pub(crate) fn read_in_child(path: &Path, read: impl FnOnce() -> bool) -> Result<(), Error> {
+    let size = std::fs::metadata(path).map_or(0, |m| m.len());
+    let limit = std::time::Duration::from_secs(20 + size / 10_000_000);
+    // Fork while holding hdf5's lock, so that no other thread of ours is inside libhdf5 at
+    // the fork (the child would wait for that lock for ever); the child, a copy of this
+    // thread, holds it.
+    let pid = hdf5::sync::sync(|| {
+        // SAFETY: the child runs `read` and leaves by `_exit`, touching nothing shared but the
+        // file; no lock the child needs is held by another thread (see above).
+        let pid = unsafe { libc::fork() };
+        if pid == 0 {
+            // Gone by itself after the time limit, even if this process is killed first
+            // and no one is left to kill it (SIGALRM ends a process).
+            // SAFETY: only sets this process's timer.
+            unsafe { libc::alarm(limit.as_secs() as libc::c_uint + 1) };
+            let code = match std::panic::catch_unwind(std::panic::AssertUnwindSafe(read)) {
+                Ok(_) => 0,
+                Err(_) => 1,
+            };
+            // SAFETY: ends the child at once, running no destructors and flushing nothing.
+            unsafe { libc::_exit(code) }
+        }
+        pid
+    });
+    if pid < 0 {
+        return Err(Error::io(
+            path.display(),
+            format!(
+                "cannot start a process to read it: {}",
+                std::io::Error::last_os_error()
+            ),
+        ));
+    }
+    let start = std::time::Instant::now();
+    let mut status = 0;
+    loop {
+        // SAFETY: waits for our own child.
+        let done = unsafe { libc::waitpid(pid, &mut status, libc::WNOHANG) };
+        if done == pid {
+            break;
+        }
+        if done < 0 {
+            return Err(Error::io(
+                path.display(),
+                format!("reading it: {}", std::io::Error::last_os_error()),
+            ));
+        }
+        if start.elapsed() > limit {
+            // SAFETY: kills and reaps our own child.
+            unsafe {
+                libc::kill(pid, libc::SIGKILL);
+                libc::waitpid(pid, &mut status, 0);
+            }
+            return Err(input_error(
+                path,
+                format!(
+                    "is corrupt: reading it did not finish in {} s",
+                    limit.as_secs()
+                ),
+            ));
+        }
+        std::thread::sleep(std::time::Duration::from_millis(2));
+    }
+    if libc::WIFSIGNALED(status) {
+        return Err(input_error(
+            path,
+            format!(
+                "is corrupt: reading it crashed the HDF5 library (signal {})",
+                libc::WTERMSIG(status)
+            ),
+        ));
+    }
+    if libc::WEXITSTATUS(status) != 0 {
+        return Err(input_error(path, "is corrupt: reading it failed"));
+    }
+    Ok(())
+}
+
 /// Set a scalar attribute, writing over an existing one.
 pub(crate) fn set_attr<T: H5Type>(loc: &Location, name: &str, value: &T) -> R<()> {
     match loc.attr(name) {

@@ -1,9 +1,16 @@
 //! The HDF5 result file: written after each increment, read back to resume a run, to plot
 //! and to inspect (`grainstat info`).
 //!
-//! A run killed at any moment must leave a file that can be resumed, so each increment is
-//! written into its own group, its `complete` attribute is set last and the file is flushed;
-//! on resume every group without it is deleted. Every value a [`State`] holds is stored
+//! A run killed at any moment must leave a file that opens and can be resumed. HDF5 updates
+//! its metadata in place and reuses space it freed, so a process killed in the middle of a
+//! write, even one followed by a flush, can leave a file that no longer opens or whose
+//! compressed chunks no longer inflate. So the file is never written where it lies: every
+//! change (the header, each increment, the summary, the tidying on resume) is made to a copy
+//! beside it (`NAME.h5.writing`), flushed and closed there, and the copy is then renamed over
+//! the file. The rename is atomic, so at every moment `NAME.h5` is the file as it was after one
+//! whole change. Each increment is still written into its own group with its `complete`
+//! attribute set last, and on resume every group without it is deleted (files written before
+//! this scheme). Every value a [`State`] holds is stored
 //! exactly (f64 as f64, indices as i64), so a resumed run repeats the uninterrupted one bit
 //! for bit. The layout is documented for Python users in `docs/hdf5-layout.md`; keep the two
 //! in step (and raise [`FORMAT_VERSION`] when a change breaks old readers).
@@ -17,7 +24,8 @@ use ndarray::{s, Array1, ArrayView1, ArrayView2};
 
 use super::h5::{
     dataset, get_attr, get_count, get_str_attr, input_error, put, put_strings, put_text,
-    read_error, read_rows, read_vec, require_format, set_attr, set_str_attr, write_error, Fail, R,
+    read_error, read_in_child, read_rows, read_vec, require_format, set_attr, set_str_attr,
+    write_error, Fail, R,
 };
 use crate::contact::{BreakMode, BrokenBond, Contact, ContactParams, ContactSet, Response};
 use crate::error::Error;
@@ -122,10 +130,10 @@ impl RunHeader {
     }
 }
 
-/// A result file open for writing.
+/// A result file being written. No HDF5 handle stays open between changes: each one is made
+/// to a copy and renamed over the file (see the module's notes).
 #[derive(Debug)]
 pub struct ResultFile {
-    file: File,
     path: PathBuf,
     grains: usize,
     walls: usize,
@@ -139,17 +147,17 @@ impl ResultFile {
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
             std::fs::create_dir_all(dir).map_err(|e| Error::io(dir.display(), e))?;
         }
-        let file = File::create(path).map_err(|e| Error::io(path.display(), e))?;
+        let side = side_path(path);
+        let file = File::create(&side).map_err(|e| Error::io(side.display(), e))?;
         let make = || -> R<()> {
             write_header(&file, header)?;
             file.create_group("increments")?;
             create_history(&file.create_group("history")?, header.walls.len())?;
-            file.flush()?;
             Ok(())
         };
         make().map_err(write_error(path))?;
+        close_and_rename(file, &side, path)?;
         Ok(ResultFile {
-            file,
             path: path.to_path_buf(),
             grains: header.radius.len(),
             walls: header.walls.len(),
@@ -164,54 +172,46 @@ impl ResultFile {
         path: impl AsRef<Path>,
     ) -> Result<(ResultFile, RunHeader, State), Error> {
         let path = path.as_ref();
-        let file = open_existing(path, true)?;
-        let header = read_header(&file).map_err(read_error(path))?;
-        let (last, state) = {
-            let inc = file.group("increments").map_err(|e| {
-                input_error(
-                    path,
-                    format!("not a complete result file (no /increments: {e})"),
-                )
-            })?;
-            let groups = increment_groups(&inc).map_err(read_error(path))?;
-            let last = groups
-                .iter()
-                .rev()
-                .find(|(_, _, complete)| *complete)
-                .map(|(k, name, _)| (*k, name.clone()))
-                .ok_or_else(|| input_error(path, "has no complete increment to resume from"))?;
-            let state = inc
-                .group(&last.1)
-                .map_err(Fail::from)
-                .and_then(|g| read_group_state(&g, &header))
-                .map_err(read_error(path))?;
-            let tidy = || -> R<()> {
-                for (_, name, complete) in &groups {
-                    if !complete {
-                        inc.unlink(name)?;
-                    }
-                }
-                Ok(())
-            };
-            tidy().map_err(write_error(path))?;
-            (last.0, state)
-        };
-        let mut out = ResultFile {
-            file,
-            path: path.to_path_buf(),
+        // All of it in a child process first, with a trial write of the state resumed from
+        // to a copy that is then dropped: libhdf5 can crash or hang on a corrupt file, and
+        // may meet the corruption only when it writes (see `read_in_child`).
+        read_in_child(path, || {
+            let probe = ResultFile::tidied(path, &side_path(path)).and_then(|(out, _, state)| {
+                out.edit_copy(&out.path, read_error(path), |file| {
+                    let report = IncrementReport::default();
+                    let rows = out.history_rows;
+                    out.try_write_increment(file, rows, &state, &report, &SolverStats::default())
+                        .map(drop)
+                })
+            });
+            let _ = std::fs::remove_file(side_path(&side_path(path)));
+            let _ = std::fs::remove_file(side_path(path));
+            probe.is_ok()
+        })?;
+        ResultFile::tidied(path, path)
+    }
+
+    /// The file at `path` for resuming, written to `to`: incomplete groups and their history
+    /// rows deleted.
+    fn tidied(path: &Path, to: &Path) -> Result<(ResultFile, RunHeader, State), Error> {
+        // Read-only first: a file that is not a whole result file is bad input, and is left
+        // as it is.
+        let (header, state, incomplete, keep) = read_for_resume(path)?;
+        let walls = header.walls.len();
+        let out = ResultFile {
+            path: to.to_path_buf(),
             grains: header.radius.len(),
-            walls: header.walls.len(),
-            history_rows: 0,
+            walls,
+            history_rows: keep,
         };
-        let mut history = || -> R<()> {
-            let h = out.file.group("history")?;
-            let keep = leading_rows(&h, |k| k <= last as i64)?;
-            truncate_history(&h, keep, out.walls)?;
-            out.history_rows = keep;
-            out.file.flush()?;
-            Ok(())
-        };
-        history().map_err(write_error(path))?;
+        // The file read whole, but deleting in it may still find it corrupt: bad input too.
+        out.edit_copy(path, read_error(path), |file| {
+            let inc = file.group("increments")?;
+            for name in &incomplete {
+                inc.unlink(name)?;
+            }
+            truncate_history(&file.group("history")?, keep, walls)
+        })?;
         Ok((out, header, state))
     }
 
@@ -222,44 +222,65 @@ impl ResultFile {
 
     /// Write a converged (committed) state with its report as group
     /// `/increments/<increment>`, append a `/history` row, update `/summary`, then mark the
-    /// group complete and flush. Writing an increment that is already in the file replaces
-    /// it (and drops its history rows and any after them).
+    /// group complete; all in one change (see the module's notes). Writing an increment that
+    /// is already in the file replaces it (and drops its history rows and any after them).
     pub fn write_increment(
         &mut self,
         state: &State,
         report: &IncrementReport,
         stats: &SolverStats,
     ) -> Result<(), Error> {
-        self.try_write_increment(state, report, stats)
-            .map_err(write_error(&self.path))
+        let mut rows = self.history_rows;
+        self.change(|file| {
+            rows = self.try_write_increment(file, rows, state, report, stats)?;
+            Ok(())
+        })?;
+        self.history_rows = rows;
+        Ok(())
     }
 
     /// Write the solver's timers and counters as attributes of `/summary`, replacing the
     /// last ones.
     pub fn write_summary(&mut self, stats: &SolverStats) -> Result<(), Error> {
-        let write = || -> R<()> {
-            write_summary_group(&self.file, stats)?;
-            self.file.flush()?;
-            Ok(())
-        };
-        write().map_err(write_error(&self.path))
+        self.change(|file| write_summary_group(file, stats))
     }
 
-    /// Flush and close the file.
-    pub fn close(self) -> Result<(), Error> {
-        let path = self.path;
-        self.file
-            .flush()
-            .map_err(|e| Error::io(path.display(), e))?;
-        self.file.close().map_err(|e| Error::io(path.display(), e))
+    /// Make one change to the file: to a copy beside it, flushed, closed and renamed over
+    /// it. Killed at any moment, the file is as it was before the change or after it.
+    fn change(&self, write: impl FnOnce(&File) -> R<()>) -> Result<(), Error> {
+        self.edit_copy(&self.path, write_error(&self.path), write)
     }
 
+    /// Make one change to the file at `from` and put the result at this file's path: the
+    /// change is made to a copy beside that (`side_path`), flushed, closed and renamed over
+    /// it. HDF5's failures become errors by `blame`.
+    fn edit_copy(
+        &self,
+        from: &Path,
+        blame: impl FnOnce(Fail) -> Error,
+        write: impl FnOnce(&File) -> R<()>,
+    ) -> Result<(), Error> {
+        let side = side_path(&self.path);
+        std::fs::copy(from, &side).map_err(|e| Error::io(side.display(), e))?;
+        let file = File::open_rw(&side).map_err(|e| Error::io(side.display(), e))?;
+        if let Err(fail) = write(&file) {
+            drop(file);
+            // The file itself is untouched; the half-changed copy is of no use.
+            let _ = std::fs::remove_file(&side);
+            return Err(blame(fail));
+        }
+        close_and_rename(file, &side, &self.path)
+    }
+
+    /// Write one increment into `file` whose `/history` has `rows` rows; the rows after.
     fn try_write_increment(
-        &mut self,
+        &self,
+        file: &File,
+        mut rows: usize,
         state: &State,
         report: &IncrementReport,
         stats: &SolverStats,
-    ) -> R<()> {
+    ) -> R<usize> {
         if state.grains.len() != self.grains || state.walls.len() != self.walls {
             return Err(Fail(format!(
                 "the state has {} grains and {} walls, the file was created for {} and {}",
@@ -287,30 +308,80 @@ impl ResultFile {
         }
         let k = state.increment;
         let name = group_name(k);
-        let inc = self.file.group("increments")?;
-        let history = self.file.group("history")?;
+        let inc = file.group("increments")?;
+        let history = file.group("history")?;
         if inc.link_exists(&name) {
             inc.unlink(&name)?;
-            let keep = leading_rows(&history, |j| j < k as i64)?;
-            truncate_history(&history, keep, self.walls)?;
-            self.history_rows = keep;
+            rows = leading_rows(&history, |j| j < k as i64)?;
+            truncate_history(&history, rows, self.walls)?;
         }
         let g = inc.create_group(&name)?;
         write_group_state(&g, state, report)?;
-        append_history(&history, self.history_rows, self.walls, state, report)?;
-        self.history_rows += 1;
-        write_summary_group(&self.file, stats)?;
+        append_history(&history, rows, self.walls, state, report)?;
+        write_summary_group(file, stats)?;
         // Last: only now is the increment whole.
         set_attr(&g, "complete", &1u8)?;
-        self.file.flush()?;
-        Ok(())
+        Ok(rows + 1)
     }
+}
+
+/// What resuming from `path` needs: the header, the state of the last complete increment,
+/// the incomplete groups to delete and the `/history` rows to keep.
+fn read_for_resume(path: &Path) -> Result<(RunHeader, State, Vec<String>, usize), Error> {
+    let file = open_existing(path)?;
+    let header = read_header(&file).map_err(read_error(path))?;
+    let inc = file.group("increments").map_err(|e| {
+        input_error(
+            path,
+            format!("not a complete result file (no /increments: {e})"),
+        )
+    })?;
+    let groups = increment_groups(&inc).map_err(read_error(path))?;
+    let (last, name) = groups
+        .iter()
+        .rev()
+        .find(|(_, _, complete)| *complete)
+        .map(|(k, name, _)| (*k, name.clone()))
+        .ok_or_else(|| input_error(path, "has no complete increment to resume from"))?;
+    let state = inc
+        .group(&name)
+        .map_err(Fail::from)
+        .and_then(|g| read_group_state(&g, &header))
+        .map_err(read_error(path))?;
+    let incomplete = groups
+        .into_iter()
+        .filter(|(_, _, complete)| !complete)
+        .map(|(_, name, _)| name)
+        .collect();
+    let keep = file
+        .group("history")
+        .map_err(Fail::from)
+        .and_then(|h| leading_rows(&h, |k| k <= last as i64))
+        .map_err(read_error(path))?;
+    Ok((header, state, incomplete, keep))
+}
+
+/// Where changes to the result file `path` are made before they replace it: `NAME.h5.writing`
+/// beside `NAME.h5`. A run killed while changing the file leaves it there; the next change
+/// writes over it.
+pub fn side_path(path: &Path) -> PathBuf {
+    let mut name = path.as_os_str().to_owned();
+    name.push(".writing");
+    PathBuf::from(name)
+}
+
+/// Flush and close the changed copy `side`, then rename it over `path`.
+fn close_and_rename(file: File, side: &Path, path: &Path) -> Result<(), Error> {
+    file.flush()
+        .and_then(|()| file.close())
+        .map_err(|e| Error::io(side.display(), e))?;
+    std::fs::rename(side, path).map_err(|e| Error::io(path.display(), e))
 }
 
 /// The increments written completely to a result file, in order.
 pub fn read_increments(path: impl AsRef<Path>) -> Result<Vec<usize>, Error> {
     let path = path.as_ref();
-    let file = open_existing(path, false)?;
+    let file = open_existing(path)?;
     let read = || -> R<Vec<usize>> {
         let inc = file.group("increments")?;
         Ok(increment_groups(&inc)?
@@ -325,7 +396,7 @@ pub fn read_increments(path: impl AsRef<Path>) -> Result<Vec<usize>, Error> {
 /// The run's header and the state after one complete increment.
 pub fn read_state(path: impl AsRef<Path>, increment: usize) -> Result<(RunHeader, State), Error> {
     let path = path.as_ref();
-    let file = open_existing(path, false)?;
+    let file = open_existing(path)?;
     let read = || -> R<(RunHeader, State)> {
         let header = read_header(&file)?;
         let inc = file.group("increments")?;
@@ -349,7 +420,7 @@ pub fn read_state(path: impl AsRef<Path>, increment: usize) -> Result<(RunHeader
 /// a resumed run can go on counting).
 pub fn read_summary(path: impl AsRef<Path>) -> Result<Option<SolverStats>, Error> {
     let path = path.as_ref();
-    let file = open_existing(path, false)?;
+    let file = open_existing(path)?;
     read_summary_group(&file).map_err(read_error(path))
 }
 
@@ -404,7 +475,7 @@ impl History {
 /// while writing may have left a row (or part of one) for an increment that is not whole.
 pub fn read_history(path: impl AsRef<Path>) -> Result<History, Error> {
     let path = path.as_ref();
-    let file = open_existing(path, false)?;
+    let file = open_existing(path)?;
     let read = || -> R<History> {
         let walls = get_count(&file, "walls")?;
         let complete: Vec<i64> = increment_groups(&file.group("increments")?)?
@@ -459,7 +530,12 @@ pub fn read_history(path: impl AsRef<Path>) -> Result<History, Error> {
 /// A human summary of a result file, for `grainstat info`.
 pub fn info(path: impl AsRef<Path>) -> Result<String, Error> {
     let path = path.as_ref();
-    let file = open_existing(path, false)?;
+    read_in_child(path, || summarise(path).is_ok())?;
+    summarise(path)
+}
+
+fn summarise(path: &Path) -> Result<String, Error> {
+    let file = open_existing(path)?;
     let text = || -> R<String> {
         let header = read_header(&file)?;
         let inc = file.group("increments")?;
@@ -599,21 +675,16 @@ pub fn info(path: impl AsRef<Path>) -> Result<String, Error> {
 
 /// Open a file the user named: a missing file, a directory, or one HDF5 cannot read is an
 /// input error, and so is an HDF5 file that is not ours.
-pub(crate) fn open_existing(path: &Path, write: bool) -> Result<File, Error> {
+pub(crate) fn open_existing(path: &Path) -> Result<File, Error> {
     if !path.exists() {
         return Err(input_error(path, "no such file"));
     }
     if path.is_dir() {
         return Err(input_error(path, "is a directory, not a result file"));
     }
-    let file = if write {
-        File::open_rw(path)
-    } else {
-        File::open(path)
-    }
-    .map_err(|e| {
+    let file = File::open(path).map_err(|e| {
         let e = e.to_string();
-        let hint = if e.contains("lock") {
+        let hint = if e.contains("unable to lock") {
             " (is a run still writing it? HDF5_USE_FILE_LOCKING=FALSE reads it anyway)"
         } else {
             ""

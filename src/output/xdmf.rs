@@ -31,7 +31,7 @@ struct Step {
 
 /// Write the XDMF for the result file `result` beside it; returns its path.
 pub fn write_xdmf(result: &Path) -> Result<PathBuf, Error> {
-    let file = open_existing(result, false)?;
+    let file = open_existing(result)?;
     let read = || -> R<(usize, Vec<Step>)> {
         let grains = get_count(&file, "grains")?;
         // Written since the XDMF exists; older files lack it.

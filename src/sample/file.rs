@@ -30,10 +30,12 @@ use super::{Region, SizeDistribution, SizeKind};
 use crate::error::Error;
 use crate::geometry::{GrainSet, Pair, Side, WallSet};
 use crate::output::h5::{
-    get_attr, get_str_attr, input_error, put, read_rows, read_vec, require_format, set_attr,
-    set_str_attr, Fail, R,
+    get_attr, get_str_attr, input_error, put, read_in_child, read_rows, read_vec, require_format,
+    set_attr, set_str_attr, Fail, R,
 };
-use crate::output::hdf5_file::{decode_pair, read_walls, side_code, write_walls, WallHeader};
+use crate::output::hdf5_file::{
+    decode_pair, read_walls, side_code, side_path, write_walls, WallHeader,
+};
 
 /// Value of the root attribute `format`: tells sample files from other HDF5 files.
 pub const FORMAT: &str = "grainstat-sample";
@@ -87,14 +89,18 @@ pub fn write_sample(path: impl AsRef<Path>, sample: &SampleFile) -> Result<(), E
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).map_err(|e| Error::io(dir.display(), e))?;
     }
-    let file = File::create(path).map_err(|e| Error::io(path.display(), e))?;
+    // Written beside it and renamed over it: killed at any moment, the path holds the old
+    // file or the whole new one.
+    let side = side_path(path);
+    let file = File::create(&side).map_err(|e| Error::io(side.display(), e))?;
     let write = || -> R<()> {
         write_file(&file, sample)?;
         file.flush()?;
         Ok(())
     };
     write().map_err(|f| Error::io(path.display(), f.0))?;
-    file.close().map_err(|e| Error::io(path.display(), e))
+    file.close().map_err(|e| Error::io(side.display(), e))?;
+    std::fs::rename(&side, path).map_err(|e| Error::io(path.display(), e))
 }
 
 /// Reads a sample file. A missing file, one that is not HDF5, an HDF5 file that is not a
@@ -102,6 +108,11 @@ pub fn write_sample(path: impl AsRef<Path>, sample: &SampleFile) -> Result<(), E
 /// file.
 pub fn read_sample(path: impl AsRef<Path>) -> Result<SampleFile, Error> {
     let path = path.as_ref();
+    read_in_child(path, || read_checked(path).is_ok())?;
+    read_checked(path)
+}
+
+fn read_checked(path: &Path) -> Result<SampleFile, Error> {
     let file = open_existing(path)?;
     let sample = read_file(&file).map_err(|f| input_error(path, f.0))?;
     check_sample(&sample).map_err(|m| input_error(path, m))?;

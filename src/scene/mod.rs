@@ -10,6 +10,7 @@ mod validate;
 
 pub(crate) use load::read_grain_csv;
 pub use load::{build_grains, load_scene, load_solver, parse_scene, parse_solver};
+pub(crate) use validate::start_overlap;
 
 use serde::{Deserialize, Deserializer, Serialize};
 use std::collections::BTreeMap;

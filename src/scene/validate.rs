@@ -6,7 +6,17 @@
 
 use super::load::child_key;
 use super::{Friction, GrainSource, LawKind, Material, Scene, WallControl, BOX_SIDES};
+use crate::contact::ContactSet;
+use crate::geometry::{gap_between, GrainSet, Side, WallSet};
 use std::collections::BTreeMap;
+
+/// The most grains a scene may ask for: far beyond what fits in memory (10^6 grains take a few
+/// GB), so a mistyped count is an error rather than an allocation that never ends.
+const MAX_GRAINS: usize = 100_000_000;
+
+/// The most increments a load program may have: the counters add them up, and a run of more
+/// would not end in any case.
+const MAX_INCREMENTS: usize = 1_000_000_000;
 
 /// Every problem in `scene`, as (key path, message) pairs in file order; empty if it is fine.
 pub(crate) fn validate(scene: &Scene) -> Vec<(String, String)> {
@@ -16,6 +26,9 @@ pub(crate) fn validate(scene: &Scene) -> Vec<(String, String)> {
         // A scene that prepares a sample has no grains yet.
         Some(spec) => {
             sample(spec, &mut p);
+            if p.0.is_empty() {
+                crushing_stress(spec, &scene.material, &mut p);
+            }
             if grain_problems(&scene.grains).is_empty() {
                 p.push(
                     "grains",
@@ -47,8 +60,11 @@ pub(crate) fn validate(scene: &Scene) -> Vec<(String, String)> {
 /// The problems of a sample section.
 fn sample(s: &crate::scene::SampleSpec, p: &mut Problems) {
     use crate::sample::prepare::RegionShape;
-    if s.grains == 0 {
-        p.push("sample.grains", "must be at least 1");
+    if s.grains == 0 || s.grains > MAX_GRAINS {
+        p.push(
+            "sample.grains",
+            format!("must be at least 1 and at most {MAX_GRAINS:.0e}"),
+        );
     }
     if p.finite("sample.stress", s.stress) && s.stress <= 0.0 {
         p.push("sample.stress", "must be > 0 (Pa)");
@@ -81,6 +97,39 @@ fn sample(s: &crate::scene::SampleSpec, p: &mut Problems) {
     }
     if let Err(e) = s.distribution.check() {
         p.push("sample.distribution", e.to_string());
+    }
+}
+
+/// The deepest overlap a sample's target stress may press grains into, as a fraction of the
+/// mean radius.
+const MAX_SAMPLE_OVERLAP: f64 = 0.25;
+
+/// A sample's target stress must leave the grains' overlaps small, as the contact laws
+/// assume: a contact carrying the stress on a grain's section, `F = sigma 2 rbar D`, must
+/// overlap by at most [`MAX_SAMPLE_OVERLAP`] of the mean radius (`F / k_n`, or Hertz with
+/// `E* = G / (1 - nu)` and `R* = rbar / 2`). Far beyond that, growth runs away and ends in
+/// NaN.
+fn crushing_stress(s: &crate::scene::SampleSpec, m: &Material, p: &mut Problems) {
+    let r = s.distribution.mean_radius;
+    let force = s.stress * 2.0 * r * m.depth.unwrap_or(2.0 * r);
+    let overlap = match (m.law, m.normal_stiffness, m.shear_modulus) {
+        (LawKind::Linear, Some(k), _) => force / k,
+        (LawKind::Hertz, _, Some(g)) => {
+            let e = g / (1.0 - m.poisson);
+            (3.0 * force / (4.0 * e * (r / 2.0).sqrt())).powf(2.0 / 3.0)
+        }
+        _ => return,
+    };
+    if overlap > MAX_SAMPLE_OVERLAP * r {
+        p.push(
+            "sample.stress",
+            format!(
+                "would press the grains {:.2e} of their mean radius into one another (a \
+                 contact carrying the stress on a grain's section); the contact laws hold for \
+                 overlaps up to {MAX_SAMPLE_OVERLAP}: lower the stress or stiffen the material",
+                overlap / r
+            ),
+        );
     }
 }
 
@@ -175,8 +224,11 @@ pub(crate) fn grain_problems(g: &GrainSource) -> Vec<(String, String)> {
                 ),
             );
         }
-        if c.rows.checked_mul(c.columns).is_none() {
-            p.push("grains.crystal", "`rows * columns` is too large");
+        if c.rows.checked_mul(c.columns).is_none_or(|n| n > MAX_GRAINS) {
+            p.push(
+                "grains.crystal",
+                format!("`rows * columns` must be at most {MAX_GRAINS:.0e} grains"),
+            );
         }
         p.positive("grains.crystal.radius", c.radius);
     }
@@ -354,10 +406,17 @@ fn walls(scene: &Scene, p: &mut Problems) -> BTreeMap<String, WallControl> {
 fn stages(scene: &Scene, walls: &BTreeMap<String, WallControl>, p: &mut Problems) {
     // The controls as the stages change them.
     let mut walls = walls.clone();
+    let mut total = 0usize;
     for (i, s) in scene.stages.iter().enumerate() {
         let at = format!("stages[{i}]");
+        total = total.saturating_add(s.increments);
         if s.increments == 0 {
             p.push(format!("{at}.increments"), "must be at least 1");
+        } else if total > MAX_INCREMENTS {
+            p.push(
+                format!("{at}.increments"),
+                format!("brings the load program to more than {MAX_INCREMENTS:.0e} increments"),
+            );
         }
         for (name, &control) in &s.control {
             let key = child_key(&format!("{at}.control"), name);
@@ -480,4 +539,62 @@ impl Problems {
             }
         }
     }
+}
+
+/// The deepest overlap a contact may have where a fresh run starts, as a fraction of the
+/// smaller radius. Prepared samples overlap by 1e-4 to 1e-3 of a radius; deeper means grains
+/// in one another or a wall placed across them, which no contact law is meant for.
+const MAX_START_OVERLAP: f64 = 0.1;
+
+/// The first contact of a fresh start that overlaps too deeply, as (key path, message): the
+/// grains of `scene`, its walls as built, and the contacts found between them.
+pub(crate) fn start_overlap(
+    scene: &Scene,
+    grains: &GrainSet,
+    walls: &WallSet,
+    contacts: &ContactSet,
+) -> Option<(String, String)> {
+    contacts.contacts.iter().find_map(|c| {
+        let b = c.pair.b;
+        match c.pair.a {
+            Side::Grain(a) => {
+                let smaller = grains.radius[a].min(grains.radius[b]);
+                let overlap = -gap_between(grains, a, b) / smaller;
+                (overlap > MAX_START_OVERLAP).then(|| {
+                    (
+                        "grains".to_string(),
+                        format!(
+                            "grains {a} and {b} (0-based) overlap by {:.3} of the smaller radius \
+                             at the start, more than {MAX_START_OVERLAP}: two grains in one place?",
+                            overlap
+                        ),
+                    )
+                })
+            }
+            Side::Wall(w) => {
+                let wall = &walls.walls[w];
+                let overlap =
+                    (grains.radius[b] - wall.distance(grains.position[b])) / grains.radius[b];
+                (overlap > MAX_START_OVERLAP).then(|| {
+                    let key = match (
+                        scene.walls.iter().position(|s| s.name == wall.name),
+                        scene.circles.iter().position(|s| s.name == wall.name),
+                    ) {
+                        (Some(k), _) => format!("walls[{k}]"),
+                        (None, Some(k)) => format!("circles[{k}]"),
+                        (None, None) => "box".to_string(),
+                    };
+                    (
+                        key,
+                        format!(
+                            "wall `{}` cuts {:.3} of grain {b}'s radius (0-based) at the start, \
+                             more than {MAX_START_OVERLAP}: the grains must start on the wall's \
+                             sample side (its normal points into the sample)",
+                            wall.name, overlap
+                        ),
+                    )
+                })
+            }
+        }
+    })
 }

@@ -331,6 +331,10 @@ impl Simulation {
         let material = MaterialModel::from_scene(scene);
         let skin = config.skin * grains.mean_radius();
         let contacts = initial_contacts(&material, &grains, &walls, skin);
+        if let Some((key, message)) = crate::scene::start_overlap(scene, &grains, &walls, &contacts)
+        {
+            return Err(InputError::new(file, message).at_key(key).into());
+        }
         Simulation::of_scene(scene, config, grains, walls, contacts)
     }
 
