@@ -491,7 +491,22 @@ fn every_example_scene_loads() {
     let mut count = 0;
     for entry in std::fs::read_dir("examples").unwrap() {
         let path = entry.unwrap().path();
-        if path.extension().is_some_and(|e| e == "toml") {
+        let sweep = path
+            .file_name()
+            .is_some_and(|n| n.to_string_lossy().starts_with("sweep-"));
+        if sweep {
+            // A sweep file names a scene, which must load, and keys it has.
+            let spec = grainstat::sweep::load_sweep(&path)
+                .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            let scene = path.with_file_name(&spec.scene);
+            let text = std::fs::read_to_string(&scene).unwrap();
+            for value in &spec.values {
+                let text = grainstat::sweep::set_keys(&text, &spec.keys, value, "sweep")
+                    .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+                grainstat::scene::parse_scene(&text, &scene.display().to_string())
+                    .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            }
+        } else if path.extension().is_some_and(|e| e == "toml") {
             grainstat::scene::load_scene(&path)
                 .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
             count += 1;
