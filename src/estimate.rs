@@ -252,6 +252,11 @@ fn estimate_stage(
     let dsa_max = rows.clone().map(|r| d(sa, r).abs()).fold(0.0, f64::max);
     let dsl_max = rows.clone().map(|r| d(sl, r).abs()).fold(0.0, f64::max);
     let del_max = rows.clone().map(|r| d(el, r).abs()).fold(0.0, f64::max);
+    if dsa_max <= 1e-9 * sa[start].abs() {
+        return Err(NotEstimated(
+            "the stage does not change the axial stress".into(),
+        ));
+    }
     let kind = if del_max <= 1e-12 {
         TestKind::Compression
     } else if dsl_max <= HELD * dsa_max {

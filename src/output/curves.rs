@@ -96,11 +96,31 @@ impl Curves {
                 }
             }
         }
-        // The pair that deformed most; the vertical one when none did.
+        let on_walls = |pair: [usize; 2]| -> Vec<f64> {
+            (0..rows)
+                .map(|r| {
+                    let v: Vec<f64> = pair
+                        .iter()
+                        .map(|&w| measured[r][w])
+                        .filter(|s| s.is_finite())
+                        .collect();
+                    v.iter().sum::<f64>() / v.len() as f64
+                })
+                .collect()
+        };
+        // The loaded pair: the one whose stress changed most (a dilating sample can widen more
+        // than it is shortened), else the one that deformed most, else the vertical one.
         let axial = pairs.iter().copied().max_by(|&a, &b| {
             let key = |p: [usize; 2]| {
+                let stress = on_walls(p);
+                let range = stress.iter().fold(f64::NEG_INFINITY, |m, &v| m.max(v))
+                    - stress.iter().fold(f64::INFINITY, |m, &v| m.min(v));
                 let last = strain(p).last().copied().unwrap_or(0.0).abs();
-                (last, walls[p[0]].normal[1].abs())
+                (
+                    if range.is_finite() { range } else { 0.0 },
+                    last,
+                    walls[p[0]].normal[1].abs(),
+                )
             };
             key(a)
                 .partial_cmp(&key(b))
@@ -117,18 +137,6 @@ impl Curves {
             );
             (0..rows)
                 .map(|r| n[0] * n[0] * xx[r] + n[0] * n[1] * (xy[r] + yx[r]) + n[1] * n[1] * yy[r])
-                .collect()
-        };
-        let on_walls = |pair: [usize; 2]| -> Vec<f64> {
-            (0..rows)
-                .map(|r| {
-                    let v: Vec<f64> = pair
-                        .iter()
-                        .map(|&w| measured[r][w])
-                        .filter(|s| s.is_finite())
-                        .collect();
-                    v.iter().sum::<f64>() / v.len() as f64
-                })
                 .collect()
         };
         let curve = |key: &str, label: String, from_contacts: bool, values: Vec<f64>| Curve {
@@ -444,7 +452,7 @@ mod tests {
     }
 
     #[test]
-    fn the_axial_pair_is_the_one_that_deformed_most() {
+    fn with_no_change_of_stress_the_axial_pair_is_the_one_that_deformed_most() {
         // A 2 x 4 box: x from 0 to 2, y from 0 to 4.
         let d = WallControl::Displacement;
         let h = header(vec![
