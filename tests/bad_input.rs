@@ -6,27 +6,8 @@
 
 mod common;
 
-use common::{assert_input_error, grainstat, stderr};
+use common::{assert_input_error, grainstat, stderr, BASE};
 use std::path::Path;
-
-/// A small valid scene: box walls around a crystal, one stage.
-const BASE: &str = r#"name = "t"
-[material]
-law = "linear"
-normal_stiffness = 1e8
-poisson = 0.16
-friction = 0.5
-[grains.crystal]
-rows = 5
-columns = 6
-radius = 1e-4
-[box]
-stress_controlled = ["top", "right"]
-stress = 1e5
-[[stages]]
-increments = 2
-stress = { top = 2e5, right = 1e5 }
-"#;
 
 /// Two grains side by side on a bottom wall, under a stress-controlled top wall at `top`.
 fn two_grains(x: &str, top: &str) -> String {

@@ -1,30 +1,14 @@
 //! Scene and solver input: every kind of bad input is an error that names the key and the
 //! line (expected lines are computed from each test's own text).
 
+mod common;
+
+use common::BASE;
 use grainstat::scene::{
     build_grains, load_scene, parse_scene, parse_solver, Friction, GrainSource, LawKind,
 };
 use grainstat::InputError;
 use std::path::{Path, PathBuf};
-
-/// A minimal valid scene: box walls around a crystal, one stage.
-const BASE: &str = r#"name = "t"
-[material]
-law = "linear"
-normal_stiffness = 1e8
-poisson = 0.16
-friction = 0.5
-[grains.crystal]
-rows = 5
-columns = 6
-radius = 1e-4
-[box]
-stress_controlled = ["top", "right"]
-stress = 1e5
-[[stages]]
-increments = 2
-stress = { top = 2e5, right = 1e5 }
-"#;
 
 /// 1-based line of the first line of `text` containing `needle`.
 fn line_with(text: &str, needle: &str) -> usize {

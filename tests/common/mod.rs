@@ -55,3 +55,22 @@ pub fn sandstone() -> MaterialModel {
         fixed_rotations: false,
     }
 }
+
+/// A small valid scene (for bad-input tests to spoil): box walls around a crystal, one stage.
+pub const BASE: &str = r#"name = "t"
+[material]
+law = "linear"
+normal_stiffness = 1e8
+poisson = 0.16
+friction = 0.5
+[grains.crystal]
+rows = 5
+columns = 6
+radius = 1e-4
+[box]
+stress_controlled = ["top", "right"]
+stress = 1e5
+[[stages]]
+increments = 2
+stress = { top = 2e5, right = 1e5 }
+"#;
