@@ -571,10 +571,7 @@ fn run_sweep_command(
     threads: usize,
     quiet: bool,
 ) -> Result<(), Error> {
-    rayon::ThreadPoolBuilder::new()
-        .num_threads(threads.max(1))
-        .build_global()
-        .map_err(|e| Error::io("thread pool", e))?;
+    thread_pool(threads)?;
     let spec = sweep::load_sweep(sweep_path)?;
     let named = spec
         .solver
@@ -627,10 +624,7 @@ fn study(
     quiet: bool,
 ) -> Result<(), Error> {
     // One thread: CPU time is then the time of one core, and comparable across strategies.
-    rayon::ThreadPoolBuilder::new()
-        .num_threads(1)
-        .build_global()
-        .map_err(|e| Error::io("thread pool", e))?;
+    thread_pool(1)?;
     let (scene, _) = load_scene(scene_path)?;
     let plan = StudyPlan {
         reference: preset(

@@ -70,6 +70,10 @@ pub(crate) fn read_in_child(path: &Path, read: impl FnOnce() -> bool) -> Result<
         // file; no lock the child needs is held by another thread (see above).
         let pid = unsafe { libc::fork() };
         if pid == 0 {
+            // Files other threads have open were inherited with their locks, which would
+            // stay held as long as this child lives: let them go (the child opens its own).
+            // SAFETY: closes this process's descriptors from 3 up; nothing here uses them.
+            unsafe { libc::syscall(libc::SYS_close_range, 3u32, u32::MAX, 0u32) };
             // Gone by itself after the time limit, even if this process is killed first
             // and no one is left to kill it (SIGALRM ends a process).
             // SAFETY: only sets this process's timer.

@@ -77,7 +77,7 @@ pub fn settle<E: Equations>(
         let (rel, worst, _) = eq.residual_norm(&residual);
         out.residual = rel;
         out.worst_grain = worst;
-        if step % MASS_REFRESH == 0 {
+        if refresh {
             out.history.push(rel);
         }
         if !rel.is_finite() {
