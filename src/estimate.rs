@@ -49,7 +49,11 @@ pub struct Prediction {
     pub young: f64,
     /// The equation `young` comes from.
     pub equation: &'static str,
-    /// `E / (1 - nu)` from isotropic compression (Pa), eq. A.85 (cemented grains).
+    /// Poisson's ratio of grains that do not rotate, eq. A.83 (cemented grains):
+    /// `nu = -(kappa - 1) / (kappa + 1)`.
+    pub poisson: Option<f64>,
+    /// `E / (1 - nu)` from isotropic compression (Pa), eq. A.85 (cemented grains): with the
+    /// measured `nu` it predicts `E` where the grains rotate.
     pub young_isotropic: Option<f64>,
     /// Cohesion `c'` (Pa), eq. A.95 (bonded grains).
     pub cohesion: Option<f64>,
@@ -126,8 +130,16 @@ impl Parameters {
         }
         if let Some(p) = &self.prediction {
             rows.push((format!("E predicted (eq. {})", p.equation), p.young, "Pa"));
+            if let Some(nu) = p.poisson {
+                rows.push(("Poisson's ratio predicted (eq. A.83)".into(), nu, "-"));
+            }
             if let Some(e) = p.young_isotropic {
                 rows.push(("E / (1 - nu) predicted (eq. A.85)".into(), e, "Pa"));
+                rows.push((
+                    "E predicted with the measured nu (eq. A.85)".into(),
+                    e * (1.0 - self.poisson_begin),
+                    "Pa",
+                ));
             }
             if let Some(c) = p.cohesion {
                 rows.push(("c' predicted (eq. A.95)".into(), c, "Pa"));
@@ -252,7 +264,8 @@ fn estimate_stage(
     let dsa_max = rows.clone().map(|r| d(sa, r).abs()).fold(0.0, f64::max);
     let dsl_max = rows.clone().map(|r| d(sl, r).abs()).fold(0.0, f64::max);
     let del_max = rows.clone().map(|r| d(el, r).abs()).fold(0.0, f64::max);
-    if dsa_max <= 1e-9 * sa[start].abs() {
+    // Within the equilibrium tolerance of the stage's start, nothing was loaded.
+    if dsa_max <= 1e-6 * sa[start].abs() {
         return Err(NotEstimated(
             "the stage does not change the axial stress".into(),
         ));
@@ -306,6 +319,11 @@ fn estimate_stage(
                 .clone()
                 .max_by(|&a, &b| q(a).total_cmp(&q(b)))
                 .expect("rows");
+            if top == start || q(top) <= 0.0 {
+                return Err(NotEstimated(
+                    "the deviator does not rise in the stage".into(),
+                ));
+            }
             // Half the peak deviator, between two written rows.
             let half = 0.5 * q(top);
             let k = (start + 1..=top).find(|&r| q(r) >= half).unwrap_or(top);
@@ -401,6 +419,7 @@ fn predict(
             Some(Prediction {
                 young,
                 equation,
+                poisson: None,
                 young_isotropic: None,
                 cohesion: None,
                 friction_angle: None,
@@ -411,6 +430,7 @@ fn predict(
             Some(Prediction {
                 young: density * k_n / d * kappa / (kappa + 1.0),
                 equation: "A.83",
+                poisson: Some(-(kappa - 1.0) / (kappa + 1.0)),
                 young_isotropic: Some(density * k_n / (2.0 * d)),
                 cohesion: m
                     .bonded
@@ -509,6 +529,7 @@ mod tests {
             ints: vec![("grain_contacts", vec![2; rows])],
             floats: vec![("volume", vec![1e-6 * 2e-4; rows])],
             walls: Vec::new(),
+            membrane_pressure: Vec::new(),
         };
         let p = estimate(&header, &history, &curves).unwrap();
         assert_eq!(p.kind, TestKind::Biaxial);

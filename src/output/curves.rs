@@ -10,7 +10,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use super::hdf5_file::{History, RunHeader};
-use crate::geometry::Wall;
+use crate::geometry::{MembraneShape, Wall};
 use crate::Error;
 
 /// What the curves are plotted against.
@@ -172,24 +172,82 @@ impl Curves {
                     macro_along(walls[axial[0]].normal),
                 ),
             ];
+            // The lateral side: a pair of walls, or side membranes (the unconfined test), whose
+            // strain is the mean width's: the area they and the axial walls enclose over the
+            // axial gap.
+            let membranes: Vec<usize> = (0..header.membranes.len())
+                .filter(|&m| match header.membranes[m].shape {
+                    MembraneShape::Side { outward } => {
+                        let n = walls[axial[0]].normal;
+                        (outward[0] * n[0] + outward[1] * n[1]).abs() < 1e-9
+                    }
+                    MembraneShape::Ring { .. } => false,
+                })
+                .collect();
+            let volume = history.float("volume");
+            let side = match lateral {
+                Some(lateral) => Some((
+                    format!("walls {}", names(lateral)),
+                    on_walls(lateral),
+                    strain(lateral),
+                    walls[lateral[0]].normal,
+                    (0..rows)
+                        .map(|r| {
+                            1.0 - gap(axial, r) * gap(lateral, r)
+                                / (gap(axial, 0) * gap(lateral, 0))
+                        })
+                        .collect::<Vec<f64>>(),
+                )),
+                None if !membranes.is_empty()
+                    && rows > 0
+                    && history.membrane_pressure.len() == rows
+                    && volume.iter().all(|v| v.is_finite()) =>
+                {
+                    let width = |r: usize| volume[r] / gap(axial, r);
+                    let MembraneShape::Side { outward } = header.membranes[membranes[0]].shape
+                    else {
+                        unreachable!("only side membranes are kept")
+                    };
+                    let names: Vec<&str> = membranes
+                        .iter()
+                        .map(|&m| header.membranes[m].name.as_str())
+                        .collect();
+                    Some((
+                        format!("membranes {}", names.join("-")),
+                        (0..rows)
+                            .map(|r| {
+                                membranes
+                                    .iter()
+                                    .map(|&m| history.membrane_pressure[r][m])
+                                    .sum::<f64>()
+                                    / membranes.len() as f64
+                            })
+                            .collect(),
+                        (0..rows).map(|r| 1.0 - width(r) / width(0)).collect(),
+                        outward,
+                        volume.iter().map(|v| 1.0 - v / volume[0]).collect(),
+                    ))
+                }
+                None => None,
+            };
             let mut volumetric = None;
             let mut lateral_strain = None;
-            if let Some(lateral) = lateral {
+            if let Some((side_names, sl, el, lateral_normal, ev)) = side {
                 lateral_strain = Some(curve(
                     "lateral_strain",
-                    format!("lateral strain ε_l ({})", names(lateral)),
+                    format!("lateral strain ε_l ({side_names})"),
                     false,
-                    strain(lateral),
+                    el,
                 ));
-                let (sa, sl) = (on_walls(axial), on_walls(lateral));
+                let sa = on_walls(axial);
                 let (ma, ml) = (
                     macro_along(walls[axial[0]].normal),
-                    macro_along(walls[lateral[0]].normal),
+                    macro_along(lateral_normal),
                 );
                 stresses.extend([
                     curve(
                         "lateral_stress_walls",
-                        format!("σ_l on the walls ({})", names(lateral)),
+                        format!("σ_l on the {side_names}"),
                         false,
                         sl.clone(),
                     ),
@@ -212,17 +270,11 @@ impl Curves {
                         ma.iter().zip(&ml).map(|(a, l)| a - l).collect(),
                     ),
                 ]);
-                // The area of the rectangle between the two pairs.
-                let values = (0..rows)
-                    .map(|r| {
-                        1.0 - gap(axial, r) * gap(lateral, r) / (gap(axial, 0) * gap(lateral, 0))
-                    })
-                    .collect();
                 volumetric = Some(curve(
                     "volumetric_strain",
                     "volumetric strain ε_v".into(),
                     false,
-                    values,
+                    ev,
                 ));
             }
             let axis = LoadAxis::Strain { axial, lateral };
@@ -390,7 +442,7 @@ pub fn write_csv(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::{Circle, WallControl};
+    use crate::geometry::{Circle, Membrane, WallControl};
     use crate::output::WallHeader;
 
     fn header(walls: Vec<WallHeader>) -> RunHeader {
@@ -448,6 +500,7 @@ mod tests {
                 ("wall_applied_stress", applied.to_vec()),
                 ("wall_stress", vec![vec![1.0; walls]; 2]),
             ],
+            membrane_pressure: vec![Vec::new(); 2],
         }
     }
 
@@ -503,5 +556,46 @@ mod tests {
         assert_eq!(curves.axis, LoadAxis::Increment);
         assert_eq!(curves.load.values, vec![0.0, 1.0]);
         assert!(curves.volumetric_strain.is_none());
+    }
+
+    #[test]
+    fn side_membranes_give_the_lateral_stress_and_the_mean_width() {
+        // A 2 x 4 sample between a bottom and a top wall, membranes on its left and right.
+        let d = WallControl::Displacement;
+        let mut h = header(vec![
+            line("bottom", [0.0, 1.0], 0.0, d),
+            line("top", [0.0, -1.0], -4.0, d),
+        ]);
+        let side = |name: &str, outward: [f64; 2]| Membrane {
+            name: name.into(),
+            shape: MembraneShape::Side { outward },
+            pressure: 0.0,
+        };
+        h.membranes = vec![side("left", [-1.0, 0.0]), side("right", [1.0, 0.0])];
+        // The top moves in by 0.1 (2.5%); the area grows from 8 to 8.2 (the sample bulges).
+        let mut history = history([vec![0.0; 2], vec![0.0, 0.1]], [vec![0.0; 2], vec![0.0; 2]]);
+        history.floats.retain(|(n, _)| *n != "volume");
+        history.floats.push(("volume", vec![8.0, 8.2]));
+        history.membrane_pressure = vec![vec![2.0, 2.0], vec![2.0, 2.0]];
+        let curves = Curves::new(&h, &history);
+        assert_eq!(
+            curves.axis,
+            LoadAxis::Strain {
+                axial: [0, 1],
+                lateral: None
+            }
+        );
+        assert!((curves.load.values[1] - 0.025).abs() < 1e-12);
+        let width = 8.2 / 3.9 / 2.0;
+        let lateral = curves.lateral_strain.unwrap().values;
+        assert!((lateral[1] - (1.0 - width)).abs() < 1e-12);
+        let volumetric = curves.volumetric_strain.unwrap().values;
+        assert!((volumetric[1] + 0.025).abs() < 1e-12);
+        let sl = curves
+            .stresses
+            .iter()
+            .find(|c| c.key == "lateral_stress_walls")
+            .unwrap();
+        assert_eq!(sl.values, vec![2.0, 2.0]);
     }
 }

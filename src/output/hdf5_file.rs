@@ -137,6 +137,7 @@ pub struct ResultFile {
     path: PathBuf,
     grains: usize,
     walls: usize,
+    membranes: usize,
     history_rows: usize,
 }
 
@@ -152,7 +153,11 @@ impl ResultFile {
         let make = || -> R<()> {
             write_header(&file, header)?;
             file.create_group("increments")?;
-            create_history(&file.create_group("history")?, header.walls.len())?;
+            create_history(
+                &file.create_group("history")?,
+                header.walls.len(),
+                header.membranes.len(),
+            )?;
             Ok(())
         };
         make().map_err(write_error(path))?;
@@ -161,6 +166,7 @@ impl ResultFile {
             path: path.to_path_buf(),
             grains: header.radius.len(),
             walls: header.walls.len(),
+            membranes: header.membranes.len(),
             history_rows: 0,
         })
     }
@@ -197,11 +203,12 @@ impl ResultFile {
         // Read-only first: a file that is not a whole result file is bad input, and is left
         // as it is.
         let (header, state, incomplete, keep) = read_for_resume(path)?;
-        let walls = header.walls.len();
+        let (walls, membranes) = (header.walls.len(), header.membranes.len());
         let out = ResultFile {
             path: to.to_path_buf(),
             grains: header.radius.len(),
             walls,
+            membranes,
             history_rows: keep,
         };
         // The file read whole, but deleting in it may still find it corrupt: bad input too.
@@ -210,7 +217,7 @@ impl ResultFile {
             for name in &incomplete {
                 inc.unlink(name)?;
             }
-            truncate_history(&file.group("history")?, keep, walls)
+            truncate_history(&file.group("history")?, keep, walls, membranes)
         })?;
         Ok((out, header, state))
     }
@@ -313,11 +320,12 @@ impl ResultFile {
         if inc.link_exists(&name) {
             inc.unlink(&name)?;
             rows = leading_rows(&history, |j| j < k as i64)?;
-            truncate_history(&history, rows, self.walls)?;
+            truncate_history(&history, rows, self.walls, self.membranes)?;
         }
         let g = inc.create_group(&name)?;
         write_group_state(&g, state, report)?;
         append_history(&history, rows, self.walls, state, report)?;
+        append_membrane_row(&history, rows, state)?;
         write_summary_group(file, stats)?;
         // Last: only now is the increment whole.
         set_attr(&g, "complete", &1u8)?;
@@ -433,6 +441,8 @@ pub struct History {
     pub floats: Vec<(&'static str, Vec<f64>)>,
     /// Per-wall columns (dataset name, one row of `W` values per increment).
     pub walls: Vec<(&'static str, Vec<Vec<f64>>)>,
+    /// Each membrane's pressure (Pa), one row of `M` values per increment.
+    pub membrane_pressure: Vec<Vec<f64>>,
 }
 
 impl History {
@@ -518,10 +528,27 @@ pub fn read_history(path: impl AsRef<Path>) -> Result<History, Error> {
                 Ok((name, rows))
             })
             .collect::<R<Vec<_>>>()?;
+        let membranes = dataset(&h, MEMBRANE_PRESSURE)?
+            .shape()
+            .get(1)
+            .copied()
+            .unwrap_or(0);
+        let raw = dataset(&h, MEMBRANE_PRESSURE)?
+            .read_raw::<f64>()
+            .map_err(|e| Fail(format!("dataset `/history/{MEMBRANE_PRESSURE}`: {e}")))?;
+        if raw.len() < rows * membranes {
+            return Err(Fail(format!(
+                "dataset `/history/{MEMBRANE_PRESSURE}` is short"
+            )));
+        }
         Ok(History {
             ints,
             floats,
             walls: wall_columns,
+            membrane_pressure: keep
+                .iter()
+                .map(|&r| raw[r * membranes..(r + 1) * membranes].to_vec())
+                .collect(),
         })
     };
     read().map_err(read_error(path))
@@ -1270,7 +1297,10 @@ const HISTORY_WALL: [&str; 6] = [
     "wall_stress",
 ];
 
-fn create_history(h: &Group, walls: usize) -> R<()> {
+/// Each membrane's pressure: a row of `M` values per increment, like the walls' columns.
+const MEMBRANE_PRESSURE: &str = "membrane_pressure";
+
+fn create_history(h: &Group, walls: usize, membranes: usize) -> R<()> {
     let filtered = |b: hdf5::DatasetBuilder| {
         let b = b.shuffle();
         if hdf5::filters::deflate_available() {
@@ -1305,6 +1335,27 @@ fn create_history(h: &Group, walls: usize) -> R<()> {
             .shape(vec![Extent::resizable(0), second])
             .chunk((HISTORY_CHUNK, walls.max(1)))
             .create(name)?;
+    }
+    let second = if membranes == 0 {
+        Extent::resizable(0)
+    } else {
+        Extent::fixed(membranes)
+    };
+    filtered(h.new_dataset_builder())
+        .empty::<f64>()
+        .shape(vec![Extent::resizable(0), second])
+        .chunk((HISTORY_CHUNK, membranes.max(1)))
+        .create(MEMBRANE_PRESSURE)?;
+    Ok(())
+}
+
+fn append_membrane_row(h: &Group, row: usize, state: &State) -> R<()> {
+    let pressure: Vec<f64> = state.membranes.iter().map(|m| m.pressure).collect();
+    let ds = dataset(h, MEMBRANE_PRESSURE)?;
+    ds.resize([row + 1, pressure.len()])?;
+    if !pressure.is_empty() {
+        let view = ArrayView2::from_shape((1, pressure.len()), &pressure[..])?;
+        ds.write_slice(view, s![row..row + 1, ..])?;
     }
     Ok(())
 }
@@ -1386,19 +1437,21 @@ fn leading_rows(h: &Group, keep: impl Fn(i64) -> bool) -> R<usize> {
         .iter()
         .chain(&HISTORY_FLOAT)
         .chain(&HISTORY_WALL)
+        .chain(&[MEMBRANE_PRESSURE])
     {
         rows = rows.min(dataset(h, name)?.shape().first().copied().unwrap_or(0));
     }
     Ok(rows)
 }
 
-fn truncate_history(h: &Group, rows: usize, walls: usize) -> R<()> {
+fn truncate_history(h: &Group, rows: usize, walls: usize, membranes: usize) -> R<()> {
     for name in HISTORY_INT.iter().chain(&HISTORY_FLOAT) {
         dataset(h, name)?.resize([rows])?;
     }
     for name in HISTORY_WALL {
         dataset(h, name)?.resize([rows, walls])?;
     }
+    dataset(h, MEMBRANE_PRESSURE)?.resize([rows, membranes])?;
     Ok(())
 }
 

@@ -312,8 +312,10 @@ pub struct Stage {
     #[serde(default)]
     pub shear: BTreeMap<String, f64>,
     /// Load until the sample fails (`until_failure = true`): a load-controlled test that
-    /// reaches collapse has no equilibrium beyond it, so an increment of this stage that does
-    /// not converge even after the solver's `max_cuts` halvings ends the test there. The last
+    /// reaches collapse has no equilibrium beyond it, and a brittle sample pushed past its
+    /// peak may snap back, off any quasi-static path from the last equilibrium; so an
+    /// increment of this stage that does not converge even after the solver's `max_cuts`
+    /// halvings ends the test there. The last
     /// converged state is written, the run says at which increment and load the sample
     /// failed, and it ends with exit status 0. Without it (the default) such an increment is
     /// an error (exit status 3).
