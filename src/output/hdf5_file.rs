@@ -528,27 +528,29 @@ pub fn read_history(path: impl AsRef<Path>) -> Result<History, Error> {
                 Ok((name, rows))
             })
             .collect::<R<Vec<_>>>()?;
-        let membranes = dataset(&h, MEMBRANE_PRESSURE)?
-            .shape()
-            .get(1)
-            .copied()
-            .unwrap_or(0);
-        let raw = dataset(&h, MEMBRANE_PRESSURE)?
-            .read_raw::<f64>()
-            .map_err(|e| Fail(format!("dataset `/history/{MEMBRANE_PRESSURE}`: {e}")))?;
-        if raw.len() < rows * membranes {
-            return Err(Fail(format!(
-                "dataset `/history/{MEMBRANE_PRESSURE}` is short"
-            )));
+        // Files written before the membranes' pressures were kept have none.
+        let mut membrane_pressure = Vec::new();
+        if h.link_exists(MEMBRANE_PRESSURE) {
+            let ds = dataset(&h, MEMBRANE_PRESSURE)?;
+            let membranes = ds.shape().get(1).copied().unwrap_or(0);
+            let raw = ds
+                .read_raw::<f64>()
+                .map_err(|e| Fail(format!("dataset `/history/{MEMBRANE_PRESSURE}`: {e}")))?;
+            if raw.len() < rows * membranes {
+                return Err(Fail(format!(
+                    "dataset `/history/{MEMBRANE_PRESSURE}` is short"
+                )));
+            }
+            membrane_pressure = keep
+                .iter()
+                .map(|&r| raw[r * membranes..(r + 1) * membranes].to_vec())
+                .collect();
         }
         Ok(History {
             ints,
             floats,
             walls: wall_columns,
-            membrane_pressure: keep
-                .iter()
-                .map(|&r| raw[r * membranes..(r + 1) * membranes].to_vec())
-                .collect(),
+            membrane_pressure,
         })
     };
     read().map_err(read_error(path))
@@ -1336,12 +1338,16 @@ fn create_history(h: &Group, walls: usize, membranes: usize) -> R<()> {
             .chunk((HISTORY_CHUNK, walls.max(1)))
             .create(name)?;
     }
+    create_membrane_pressure(h, membranes)
+}
+
+fn create_membrane_pressure(h: &Group, membranes: usize) -> R<()> {
     let second = if membranes == 0 {
         Extent::resizable(0)
     } else {
         Extent::fixed(membranes)
     };
-    filtered(h.new_dataset_builder())
+    h.new_dataset_builder()
         .empty::<f64>()
         .shape(vec![Extent::resizable(0), second])
         .chunk((HISTORY_CHUNK, membranes.max(1)))
@@ -1437,7 +1443,6 @@ fn leading_rows(h: &Group, keep: impl Fn(i64) -> bool) -> R<usize> {
         .iter()
         .chain(&HISTORY_FLOAT)
         .chain(&HISTORY_WALL)
-        .chain(&[MEMBRANE_PRESSURE])
     {
         rows = rows.min(dataset(h, name)?.shape().first().copied().unwrap_or(0));
     }
@@ -1450,6 +1455,19 @@ fn truncate_history(h: &Group, rows: usize, walls: usize, membranes: usize) -> R
     }
     for name in HISTORY_WALL {
         dataset(h, name)?.resize([rows, walls])?;
+    }
+    // A file from before the membranes' pressures were kept gets them, unknown so far.
+    if !h.link_exists(MEMBRANE_PRESSURE) {
+        create_membrane_pressure(h, membranes)?;
+        let ds = dataset(h, MEMBRANE_PRESSURE)?;
+        ds.resize([rows, membranes])?;
+        if rows * membranes > 0 {
+            let unknown = vec![f64::NAN; rows * membranes];
+            ds.write_slice(
+                ArrayView2::from_shape((rows, membranes), &unknown[..])?,
+                s![.., ..],
+            )?;
+        }
     }
     dataset(h, MEMBRANE_PRESSURE)?.resize([rows, membranes])?;
     Ok(())

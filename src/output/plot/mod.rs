@@ -17,7 +17,7 @@ use super::curves::{write_csv, Curve, Curves, LoadAxis};
 use super::h5::input_error;
 use super::hdf5_file::{group_name, read_history, read_increments, read_state};
 use super::xdmf::write_xdmf;
-use crate::estimate::estimate_stages;
+use crate::estimate::{cylinder_failure, estimate_stages};
 use crate::scene::parse_scene;
 use crate::state::State;
 use crate::Error;
@@ -38,8 +38,8 @@ pub fn default_dir(result: &Path) -> PathBuf {
 
 /// Draw the pictures of the result file `result` into `dir` (default: [`default_dir`]) at
 /// `increment` (default: the last complete one), write the curves as `curves.csv` there (and
-/// the macro parameters as `parameters.csv` and `.md` when they can be estimated) and the
-/// XDMF beside the result file. Returns the files written.
+/// the macro parameters as `parameters.csv` and `.md` when they can be estimated, and a
+/// cylinder test's failure as `cylinder.md` and `.csv`) and the XDMF beside the result file. Returns the files written.
 pub fn plot(
     result: &Path,
     dir: Option<&Path>,
@@ -94,6 +94,18 @@ pub fn plot(
             }
         }
         for (name, text) in [("parameters.csv", csv), ("parameters.md", md)] {
+            let path = dir.join(name);
+            std::fs::write(&path, text).map_err(|e| Error::io(path.display(), e))?;
+            written.push(path);
+        }
+    }
+
+    // A cylinder test's failure pressures beside eqs. 36-37, and its bonds broken by increment.
+    if let Some(failure) = cylinder_failure(result)? {
+        for (name, text) in [
+            ("cylinder.md", failure.markdown()),
+            ("cylinder.csv", failure.csv()),
+        ] {
             let path = dir.join(name);
             std::fs::write(&path, text).map_err(|e| Error::io(path.display(), e))?;
             written.push(path);

@@ -7,6 +7,12 @@
 //! equilibrium, brought to the test's stresses by the stages before. Stresses are the walls'
 //! (compression positive), strains those of the walls' gaps since the stage began.
 
+mod cylinder;
+
+pub use cylinder::{
+    cylinder_failure, predict_cylinder, CylinderFailure, CylinderPrediction, CylinderRow,
+};
+
 use std::fmt::Write as _;
 
 use crate::output::curves::{Curves, LoadAxis};

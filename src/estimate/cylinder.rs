@@ -1,0 +1,329 @@
+//! The thick-walled cylinder test's failure (thesis 4.4.2): the radial pressure at which the
+//! first bonds break, at which the cylinder fails locally (1% of the bonds in the borehole
+//! region broken), and the last at which the sample was found in equilibrium; beside them
+//! the Mohr-Coulomb predictions of eqs. 34-37 with `c'` and `phi'` of eq. A.95.
+//!
+//! The borehole region is the ring next to the borehole that holds a tenth of the cylinder's
+//! area, where the thesis sees the cracks: `r^2 <= a^2 + (b^2 - a^2) / 10`, with `a` and `b`
+//! the innermost and outermost grain edges at the start.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use super::significant;
+use crate::geometry::{GrainSet, MembraneShape, Side};
+use crate::output::{read_increments, read_state};
+use crate::scene::{parse_scene, LawKind};
+use crate::Error;
+
+/// Share of the cylinder's area that is the borehole region.
+const REGION_SHARE: f64 = 0.1;
+
+/// Share of the borehole region's bonds broken at local failure.
+const LOCAL_FAILURE: f64 = 0.01;
+
+/// One written increment of a cylinder test.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CylinderRow {
+    /// The increment.
+    pub increment: usize,
+    /// Radial pressure on the outer membrane (Pa).
+    pub pressure: f64,
+    /// Bonds broken so far, in the whole sample.
+    pub broken: usize,
+    /// Bonds broken so far in the borehole region.
+    pub broken_in_region: usize,
+}
+
+/// What eqs. 34-37 predict for the cylinder.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CylinderPrediction {
+    /// `c'` (Pa) and `phi'` (degrees) of eq. A.95.
+    pub cohesion: f64,
+    /// See `cohesion`.
+    pub friction_angle: f64,
+    /// Radial pressure at which the borehole's surface fails, eqs. 34 and 36 (Pa).
+    pub surface: f64,
+    /// Radial pressure at which failure starts one mean diameter in, where the lateral
+    /// contacts are, eq. 37 (Pa).
+    pub one_diameter_in: f64,
+}
+
+/// The failure of a cylinder test, read from its result file.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CylinderFailure {
+    /// Borehole radius `a` and outer radius `b` at the start (m).
+    pub radii: [f64; 2],
+    /// Outer radius of the borehole region (m).
+    pub region_radius: f64,
+    /// Mean grain diameter (m).
+    pub mean_diameter: f64,
+    /// Bonds in the borehole region at the start.
+    pub bonds_in_region: usize,
+    /// Every written increment.
+    pub rows: Vec<CylinderRow>,
+    /// The predictions, where the scene's material has them (bonded linear contacts, depth
+    /// equal to the mean diameter as appendix 7 takes it).
+    pub prediction: Option<CylinderPrediction>,
+}
+
+impl CylinderFailure {
+    /// Pressure of the first written increment at which `broken` holds.
+    fn first(&self, reached: impl Fn(&CylinderRow) -> bool) -> Option<f64> {
+        self.rows.iter().find(|r| reached(r)).map(|r| r.pressure)
+    }
+
+    /// Pressure at which the first bond broke (the first written increment with one).
+    pub fn first_break(&self) -> Option<f64> {
+        self.first(|r| r.broken > 0)
+    }
+
+    /// Pressure at local failure: 1% of the borehole region's bonds broken.
+    pub fn local_failure(&self) -> Option<f64> {
+        let bonds = self.bonds_in_region as f64;
+        self.first(|r| r.broken_in_region as f64 >= LOCAL_FAILURE * bonds)
+    }
+
+    /// The summary as (name, value, unit) rows.
+    pub fn summary(&self) -> Vec<(String, f64, &'static str)> {
+        let nan = f64::NAN;
+        let mut rows = vec![
+            ("borehole radius a".into(), self.radii[0], "m"),
+            ("outer radius b".into(), self.radii[1], "m"),
+            (
+                "a / mean diameter".into(),
+                self.radii[0] / self.mean_diameter,
+                "-",
+            ),
+            (
+                "borehole region: outer radius".into(),
+                self.region_radius,
+                "m",
+            ),
+            (
+                "bonds in the borehole region".into(),
+                self.bonds_in_region as f64,
+                "-",
+            ),
+            (
+                "pressure at the first broken bond".into(),
+                self.first_break().unwrap_or(nan),
+                "Pa",
+            ),
+            (
+                "pressure at local failure (1% of the region's bonds)".into(),
+                self.local_failure().unwrap_or(nan),
+                "Pa",
+            ),
+            (
+                "last pressure in equilibrium".into(),
+                self.rows.last().map_or(nan, |r| r.pressure),
+                "Pa",
+            ),
+        ];
+        if let Some(p) = &self.prediction {
+            rows.extend([
+                ("c' (eq. A.95)".into(), p.cohesion, "Pa"),
+                ("phi' (eq. A.95)".into(), p.friction_angle, "deg"),
+                (
+                    "failure at the surface predicted (eq. 36)".into(),
+                    p.surface,
+                    "Pa",
+                ),
+                (
+                    "failure one diameter in predicted (eq. 37)".into(),
+                    p.one_diameter_in,
+                    "Pa",
+                ),
+            ]);
+        }
+        rows
+    }
+
+    /// The summary and the increments as markdown.
+    pub fn markdown(&self) -> String {
+        let mut text = String::from("| parameter | value | unit |\n|---|---|---|\n");
+        for (name, value, unit) in self.summary() {
+            let _ = writeln!(text, "| {name} | {} | {unit} |", significant(value));
+        }
+        text.push_str(
+            "\n| increment | pressure [Pa] | bonds broken | in the borehole region | share of the region's bonds |\n|---|---|---|---|---|\n",
+        );
+        for r in &self.rows {
+            let _ = writeln!(
+                text,
+                "| {} | {} | {} | {} | {} |",
+                r.increment,
+                significant(r.pressure),
+                r.broken,
+                r.broken_in_region,
+                significant(r.broken_in_region as f64 / self.bonds_in_region.max(1) as f64)
+            );
+        }
+        text
+    }
+
+    /// The increments as CSV.
+    pub fn csv(&self) -> String {
+        let mut text = String::from("increment,pressure,broken,broken_in_region,share_in_region\n");
+        for r in &self.rows {
+            let _ = writeln!(
+                text,
+                "{},{:e},{},{},{:e}",
+                r.increment,
+                r.pressure,
+                r.broken,
+                r.broken_in_region,
+                r.broken_in_region as f64 / self.bonds_in_region.max(1) as f64
+            );
+        }
+        text
+    }
+}
+
+/// Eqs. 34-37 for a cylinder of radii `a`, `b` and mean diameter `d`, with `c'` and `phi'`
+/// (radians): the tangential stress at the surface at failure, `2 c' cos / (1 - sin)` (eq.
+/// 34, `sigma_3 = 0` there), the radial pressure that makes it (eq. 36), and that one
+/// diameter in (eq. 37).
+pub fn predict_cylinder(a: f64, b: f64, d: f64, cohesion: f64, phi: f64) -> CylinderPrediction {
+    let (sin, cos) = phi.sin_cos();
+    let tangential = 2.0 * cohesion * cos / (1.0 - sin);
+    let surface = 0.5 * tangential * (1.0 - (a / b).powi(2));
+    CylinderPrediction {
+        cohesion,
+        friction_angle: phi.to_degrees(),
+        surface,
+        one_diameter_in: surface * (1.0 - sin) / (1.0 - sin - 2.0 * d / a),
+    }
+}
+
+/// Distance from `center` of the contact point between grains `i` and `j`.
+fn contact_radius(grains: &GrainSet, i: usize, j: usize, center: [f64; 2]) -> f64 {
+    let (p, q) = (grains.position[i], grains.position[j]);
+    let t = grains.radius[i] / (grains.radius[i] + grains.radius[j]);
+    (p[0] + t * (q[0] - p[0]) - center[0]).hypot(p[1] + t * (q[1] - p[1]) - center[1])
+}
+
+/// The failure of the cylinder test in `result`: `None` when the run is no cylinder test
+/// (its sample is not loaded by a ring membrane).
+pub fn cylinder_failure(result: &Path) -> Result<Option<CylinderFailure>, Error> {
+    let increments = read_increments(result)?;
+    let Some(&first) = increments.first() else {
+        return Ok(None);
+    };
+    let (header, start) = read_state(result, first)?;
+    let Some(center) = header.membranes.iter().find_map(|m| match m.shape {
+        MembraneShape::Ring { center } => Some(center),
+        MembraneShape::Side { .. } => None,
+    }) else {
+        return Ok(None);
+    };
+    let grains = &start.grains;
+    if grains.len() == 0 {
+        return Ok(None);
+    }
+    let distance =
+        |g: usize| (grains.position[g][0] - center[0]).hypot(grains.position[g][1] - center[1]);
+    let a = (0..grains.len())
+        .map(|g| distance(g) - grains.radius[g])
+        .fold(f64::INFINITY, f64::min);
+    let b = (0..grains.len())
+        .map(|g| distance(g) + grains.radius[g])
+        .fold(0.0, f64::max);
+    let region_radius = (a * a + REGION_SHARE * (b * b - a * a)).sqrt();
+    let in_region = |grains: &GrainSet, i: usize, j: usize| {
+        contact_radius(grains, i, j, center) <= region_radius
+    };
+    let bonds = start.contacts.contacts.iter().filter(|c| c.bonded);
+    let bonds_in_region = bonds
+        .clone()
+        .filter(|c| matches!(c.pair.a, Side::Grain(i) if in_region(grains, i, c.pair.b)))
+        .count();
+    let mut rows = Vec::with_capacity(increments.len());
+    for &k in &increments {
+        let (_, state) = read_state(result, k)?;
+        let broken = &state.contacts.broken_bonds;
+        rows.push(CylinderRow {
+            increment: k,
+            pressure: state
+                .membranes
+                .iter()
+                .find(|m| matches!(m.shape, MembraneShape::Ring { .. }))
+                .map_or(f64::NAN, |m| m.pressure),
+            broken: broken.len(),
+            broken_in_region: broken
+                .iter()
+                .filter(
+                    |c| matches!(c.pair.a, Side::Grain(i) if in_region(&state.grains, i, c.pair.b)),
+                )
+                .count(),
+        });
+    }
+    let d = 2.0 * grains.mean_radius();
+    // Eq. A.95 at the sample's contact density, over the annulus's area at depth D = d.
+    let prediction = parse_scene(&header.scene_text, "the result's scene")
+        .ok()
+        .filter(|s| s.material.law == LawKind::Linear && s.material.bonded)
+        .filter(|_| (header.depth / d - 1.0).abs() < 1e-9)
+        .map(|s| {
+            let contacts = start
+                .contacts
+                .contacts
+                .iter()
+                .filter(|c| matches!(c.pair.a, Side::Grain(_)))
+                .count() as f64;
+            let density = d * d * contacts / (std::f64::consts::PI * (b * b - a * a));
+            let cohesion = s.material.cohesion * density / (16.0 * 2f64.sqrt());
+            predict_cylinder(a, b, d, cohesion, (1.0f64 / 3.0).asin())
+        });
+    Ok(Some(CylinderFailure {
+        radii: [a, b],
+        region_radius,
+        mean_diameter: d,
+        bonds_in_region,
+        rows,
+        prediction,
+    }))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn eqs_34_to_37_by_hand() {
+        // sin phi' = 1/3: cos / (1 - sin) = sqrt(2), so sigma_tt = 2 sqrt(2) c' (eq. 34) and
+        // with a/b = 1/3, P_r = sigma_tt / 2 * 8/9 (eq. 36); a = 10 d: 1 - sin - 2 d/a = 7/15,
+        // so eq. 37's factor is (2/3) / (7/15) = 10/7.
+        let phi = (1.0f64 / 3.0).asin();
+        let p = predict_cylinder(1.0, 3.0, 0.1, 1e6, phi);
+        let surface = 2f64.sqrt() * 1e6 * 8.0 / 9.0;
+        assert!((p.surface / surface - 1.0).abs() < 1e-12);
+        assert!((p.one_diameter_in / surface - 10.0 / 7.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn local_failure_is_the_first_increment_with_1_percent_of_the_regions_bonds() {
+        let row = |increment, pressure, broken, broken_in_region| CylinderRow {
+            increment,
+            pressure,
+            broken,
+            broken_in_region,
+        };
+        let failure = CylinderFailure {
+            radii: [1.0, 3.0],
+            region_radius: 1.34,
+            mean_diameter: 0.1,
+            bonds_in_region: 300,
+            rows: vec![
+                row(1, 1e6, 0, 0),
+                row(2, 2e6, 2, 1),
+                row(3, 3e6, 5, 2),
+                row(4, 4e6, 9, 3),
+            ],
+            prediction: None,
+        };
+        assert_eq!(failure.first_break(), Some(2e6));
+        assert_eq!(failure.local_failure(), Some(4e6));
+    }
+}
