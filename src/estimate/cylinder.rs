@@ -219,7 +219,7 @@ pub fn cylinder_failure(result: &Path) -> Result<Option<CylinderFailure>, Error>
         return Ok(None);
     };
     let grains = &start.grains;
-    if grains.len() == 0 {
+    if grains.is_empty() {
         return Ok(None);
     }
     let distance =
