@@ -457,6 +457,7 @@ mod tests {
             fixed_rotations: false,
             law: "linear".into(),
             membranes: Vec::new(),
+            regions: Vec::new(),
         }
     }
 
@@ -501,6 +502,7 @@ mod tests {
                 ("wall_stress", vec![vec![1.0; walls]; 2]),
             ],
             membrane_pressure: vec![Vec::new(); 2],
+            regions: Vec::new(),
         }
     }
 

@@ -51,6 +51,7 @@ pub fn sandstone() -> MaterialModel {
         friction: 0.6,
         cohesion: 1e8,
         cohesion_radius: CohesionRadius::Mean,
+        cohesion_horizontal: 1.0,
         bonded: true,
         fixed_rotations: false,
     }
