@@ -298,3 +298,29 @@ pub fn ring_stresses(
         })
         .collect()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn mean_rotation_and_mean_absolute_rotation() {
+        let grains = GrainSet::from_parts(
+            vec![[0.0, 0.0], [1.0, 0.0], [2.0, 0.0], [3.0, 0.0]],
+            vec![[0.0, 0.0]; 4],
+            vec![0.1, -0.3, 0.2, 0.4],
+            vec![0.5; 4],
+        );
+        let m = measure(
+            &grains,
+            &WallSet::default(),
+            &ContactSet::default(),
+            MembraneBoundary::default(),
+            1.0,
+            &[],
+        );
+        assert!((m.mean_rotation - 0.1).abs() < 1e-15);
+        assert!((m.mean_absolute_rotation - 0.25).abs() < 1e-15);
+        assert!(m.region_stress.is_empty());
+    }
+}
