@@ -17,7 +17,8 @@
 //! 5. the linear solve with a cached symbolic factorisation, inside Newton with line
 //!    search and Levenberg-Marquardt regularisation ([`solver`]);
 //! 6. the topology update: contacts made and lost, bonds broken, then Newton again;
-//! 7. measurements ([`measure`]) and output ([`output`]).
+//! 7. measurements ([`measure`]: wall stresses, eq. A.41 and its regional form A.40,
+//!    contact counts, grain rotations) and output ([`output`]).
 //!
 //! Sign conventions: compression is positive (forces and stresses), rotations are
 //! anticlockwise, `n` points from side `a` to grain `b` of a contact and `t` is `n` turned

@@ -44,6 +44,7 @@ pub fn header(sim: &Simulation, scene_text: &str, solver_text: &str) -> RunHeade
         fixed_rotations: sim.material.fixed_rotations,
         law: format!("{:?}", sim.material.law).to_lowercase(),
         membranes: sim.state.membranes.clone(),
+        regions: sim.regions.clone(),
     }
 }
 

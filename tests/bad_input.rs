@@ -86,6 +86,15 @@ fn bad_scenes_are_exit_status_2_naming_file_key_and_line() {
     // (file name, text, phrases the message must hold; `{line}` is computed from the text)
     let huge_crystal = base_with("rows = 5", "rows = 100000000000");
     let huge_program = base_with("increments = 2", "increments = 18446744073709551615");
+    let region = |lines: &str| format!("{BASE}[[regions]]\nname = \"a\"\n{lines}\n");
+    let both = region("min = [0.0, 0.0]\nmax = [5e-4, 5e-4]\nradius = 3e-4");
+    let inverted = region("min = [1e-3, 0.0]\nmax = [0.0, 1e-3]");
+    let inner = region("center = [5e-4, 5e-4]\nradius = 2e-4\ninner_radius = 3e-4");
+    let twice = format!(
+        "{}[[regions]]\nname = \"a\"\ncenter = [0.0, 0.0]\nradius = 4e-4\n",
+        region("center = [0.0, 0.0]\nradius = 3e-4")
+    );
+    let shapeless = region("");
     let cases: Vec<(&str, String, Vec<String>)> = vec![
         (
             "unclosed.toml",
@@ -181,6 +190,60 @@ fn bad_scenes_are_exit_status_2_naming_file_key_and_line() {
                 "grains-in-one-place.toml".into(),
                 "key `grains`".into(),
                 "grains 0 and 1".into(),
+            ],
+        ),
+        (
+            "anisotropy.toml",
+            base_with(
+                "friction = 0.5",
+                "friction = 0.5\ncohesion_horizontal = 1.5",
+            ),
+            vec![
+                "anisotropy.toml:7".into(),
+                "material.cohesion_horizontal".into(),
+            ],
+        ),
+        (
+            "region-both.toml",
+            both.clone(),
+            vec![
+                format!("region-both.toml:{}", line_of(&both, "radius = 3e-4")),
+                "regions[0].radius".into(),
+                "not both".into(),
+            ],
+        ),
+        (
+            "region-inverted.toml",
+            inverted.clone(),
+            vec![
+                format!("region-inverted.toml:{}", line_of(&inverted, "max = ")),
+                "regions[0].max".into(),
+            ],
+        ),
+        (
+            "region-inner.toml",
+            inner.clone(),
+            vec![
+                format!("region-inner.toml:{}", line_of(&inner, "inner_radius")),
+                "regions[0].inner_radius".into(),
+            ],
+        ),
+        (
+            "region-twice.toml",
+            twice.clone(),
+            vec![
+                "region-twice.toml".into(),
+                "regions[1].name".into(),
+                "two regions".into(),
+            ],
+        ),
+        (
+            "region-shapeless.toml",
+            shapeless.clone(),
+            vec![
+                "region-shapeless.toml".into(),
+                "regions[0].name".into(),
+                "rectangle".into(),
             ],
         ),
         (

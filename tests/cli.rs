@@ -5,7 +5,7 @@
 mod common;
 
 use common::{assert_input_error, crystal_scene, grainstat, stderr};
-use grainstat::output::{read_increments, read_state};
+use grainstat::output::{read_history, read_increments, read_state};
 use std::path::Path;
 
 #[test]
@@ -146,6 +146,14 @@ fn resume_reproduces_the_uninterrupted_run() {
         let (_, b) = read_state(&resumed, increment).unwrap();
         assert!(a == b, "increment {increment} differs after resume");
     }
+    // So does `/history`, the regions' stresses and the rotations among it (compared as
+    // printed, where NaN equals NaN and every digit counts).
+    let (a, b) = (
+        read_history(&whole).unwrap(),
+        read_history(&resumed).unwrap(),
+    );
+    assert!(!a.region("region_stress_yy").is_empty());
+    assert_eq!(format!("{a:?}"), format!("{b:?}"));
 
     // Resuming with another scene, or from nothing, is bad input.
     let other = dir.path().join("other.toml");

@@ -5,8 +5,10 @@ use grainstat::contact::{BreakMode, BrokenBond, Contact, ContactParams, ContactS
 use grainstat::geometry::{
     Circle, GrainSet, Membrane, MembraneShape, Pair, Side, Wall, WallControl, WallSet,
 };
-use grainstat::measure::Measurements;
-use grainstat::output::{info, read_increments, read_state, read_summary, ResultFile, RunHeader};
+use grainstat::measure::{Measurements, Region, RegionShape};
+use grainstat::output::{
+    info, read_history, read_increments, read_state, read_summary, ResultFile, RunHeader,
+};
 use grainstat::solver::stats::SolverStats;
 use grainstat::state::{IncrementReport, State};
 use grainstat::Error;
@@ -200,6 +202,9 @@ fn report(s: &State) -> IncrementReport {
             contacts_per_grain: 2.0,
             bonds: 1,
             broken_bonds: 1,
+            mean_rotation: 1e-3 * kf,
+            mean_absolute_rotation: 2e-3 * kf,
+            region_stress: vec![[[3.0e5 + kf, 1.0], [2.0, 4.0e5]], [[5.0, 6.0], [7.0, -kf]]],
         },
         residual: 1e-9 * kf,
         newton_iterations: 3 + s.increment,
@@ -233,6 +238,23 @@ fn header(s: &State) -> RunHeader {
         fixed_rotations: false,
         law: "linear".into(),
         membranes: Vec::new(),
+        regions: vec![
+            Region {
+                name: "middle".into(),
+                shape: RegionShape::Rectangle {
+                    min: [0.0, 0.5],
+                    max: [1.0, 1.5],
+                },
+            },
+            Region {
+                name: "ring".into(),
+                shape: RegionShape::Ring {
+                    center: [1.0, 1.0],
+                    inner: 0.5,
+                    outer: 1.0,
+                },
+            },
+        ],
     }
 }
 
@@ -271,6 +293,14 @@ fn every_increment_reads_back_exactly() {
     assert_eq!(read_summary(&path).unwrap(), Some(stats(3)));
     assert_eq!(history_increments(&path), vec![1, 2, 3]);
     assert!(matches!(read_state(&path, 7), Err(Error::Input(_))));
+    // The rotations and the regions' stresses go to `/history`, one row per increment.
+    let history = read_history(&path).unwrap();
+    assert_eq!(history.float("mean_rotation"), [1e-3, 2e-3, 3e-3]);
+    assert_eq!(history.float("mean_absolute_rotation"), [2e-3, 4e-3, 6e-3]);
+    assert_eq!(history.region("region_stress_xx")[1], [3.0e5 + 2.0, 5.0]);
+    assert_eq!(history.region("region_stress_xy")[2], [1.0, 6.0]);
+    assert_eq!(history.region("region_stress_yx")[2], [2.0, 7.0]);
+    assert_eq!(history.region("region_stress_yy")[2], [4.0e5, -3.0]);
 
     let text = info(&path).unwrap();
     for needle in [

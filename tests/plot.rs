@@ -149,6 +149,15 @@ fn check_csv(csv: &Path, result: &Path) {
             );
         }
     }
+    assert!(!header.regions.is_empty(), "the scene has a region");
+    for (name, rows) in &history.regions {
+        for (k, region) in header.regions.iter().enumerate() {
+            let got = column(&format!("{name}:{}", region.name));
+            assert!(got.iter().zip(rows).all(|(a, r)| same(*a, r[k])));
+        }
+    }
+    assert!(head.contains(&"region_stress_yy:core [Pa]".to_string()));
+    assert!(head.contains(&"mean_absolute_rotation [rad]".to_string()));
     // The crystal is squeezed between its top and bottom walls: compression is positive.
     let strain = column("axial_strain");
     assert_eq!(strain[0], 0.0);

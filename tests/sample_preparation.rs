@@ -17,6 +17,7 @@ fn sand() -> MaterialModel {
         friction: 0.6,
         cohesion: 0.0,
         cohesion_radius: CohesionRadius::Mean,
+        cohesion_horizontal: 1.0,
         bonded: false,
         fixed_rotations: false,
     }

@@ -530,12 +530,14 @@ mod tests {
             fixed_rotations: false,
             law: "hertz".into(),
             membranes: Vec::new(),
+            regions: Vec::new(),
         };
         let history = History {
             ints: vec![("grain_contacts", vec![2; rows])],
             floats: vec![("volume", vec![1e-6 * 2e-4; rows])],
             walls: Vec::new(),
             membrane_pressure: Vec::new(),
+            regions: Vec::new(),
         };
         let p = estimate(&header, &history, &curves).unwrap();
         assert_eq!(p.kind, TestKind::Biaxial);

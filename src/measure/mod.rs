@@ -1,5 +1,10 @@
-//! Macro measurements of a converged state: wall forces and stresses, and the macro stress
-//! from the contact forces (eq. A.41).
+//! Macro measurements of a converged state: wall forces and stresses, the macro stress
+//! from the contact forces (eq. A.41) over the sample and in regions (eq. A.40), contact
+//! counts and the mean grain rotation.
+
+mod region;
+
+pub use region::{Region, RegionShape};
 
 use crate::contact::{kinematics, Configuration, ContactSet};
 use crate::geometry::{polygon_area, Chain, GrainSet, Membrane, MembraneShape, Side, WallSet};
@@ -31,6 +36,24 @@ pub struct Measurements {
     pub bonds: usize,
     /// Bonds broken so far.
     pub broken_bonds: usize,
+    /// Mean rotation of all grains since their origin (rad, anticlockwise); rattlers, which
+    /// the solver leaves where they are, count with the rotation they have.
+    pub mean_rotation: f64,
+    /// Mean of the grains' absolute rotations (rad): rolling both ways, which cancels in
+    /// [`Measurements::mean_rotation`].
+    pub mean_absolute_rotation: f64,
+    /// Stress in each region (eq. A.40 over the grains whose centres lie in it, divided by
+    /// its area times the depth), compression positive (Pa), indexed as `macro_stress`.
+    pub region_stress: Vec<[[f64; 2]; 2]>,
+}
+
+/// Add `u_i f_j` to `sum`.
+fn add_dyad(sum: &mut [[f64; 2]; 2], u: [f64; 2], f: [f64; 2]) {
+    for (i, row) in sum.iter_mut().enumerate() {
+        for (j, s) in row.iter_mut().enumerate() {
+            *s += u[i] * f[j];
+        }
+    }
 }
 
 /// The membranes of a state, each with its chain of grains.
@@ -42,19 +65,40 @@ pub struct MembraneBoundary<'a> {
     pub chains: &'a [Chain],
 }
 
-/// Measure a converged state.
+/// Measure a converged state, with the stress in each of `regions`.
+///
+/// Eq. A.41 sums `d_i F_j` over the contacts, `d` the branch from one side to the other;
+/// eq. A.40 sums over each grain `u_i F_j` of its contacts, `u` from its centre to the
+/// contact point (here, with compression positive, `-u` and the force on the grain). Split at
+/// the middle of the overlap, a contact's two grains share its `d F` as `(r - n/2) n F`
+/// each, so a region's sum counts the part of every contact of its grains that lies on
+/// their side; over all grains it is eq. A.41's sum.
 pub fn measure(
     grains: &GrainSet,
     walls: &WallSet,
     contacts: &ContactSet,
     boundary: MembraneBoundary,
     depth: f64,
+    regions: &[Region],
 ) -> Measurements {
     let q = Configuration::at_rest(grains, walls);
     let mut m = Measurements {
         wall_normal_force: vec![0.0; walls.len()],
         wall_shear_force: vec![0.0; walls.len()],
         ..Default::default()
+    };
+    let members: Vec<Vec<bool>> = regions
+        .iter()
+        .map(|r| grains.position.iter().map(|&p| r.contains(p)).collect())
+        .collect();
+    let mut region_sums = vec![[[0.0; 2]; 2]; regions.len()];
+    // Add `u F` of grain `g` to the sums of the regions it lies in.
+    let mut to_regions = |g: usize, u: [f64; 2], f: [f64; 2]| {
+        for (sum, inside) in region_sums.iter_mut().zip(&members) {
+            if inside[g] {
+                add_dyad(sum, u, f);
+            }
+        }
     };
     let mut sum = [[0.0; 2]; 2];
     for c in &contacts.contacts {
@@ -70,12 +114,16 @@ pub fn measure(
             Side::Grain(_) => k.distance,
             Side::Wall(_) => k.radius_b - k.overlap,
         };
-        let branch = [arm * k.normal[0], arm * k.normal[1]];
-        for (i, row) in sum.iter_mut().enumerate() {
-            for (j, s) in row.iter_mut().enumerate() {
-                *s += branch[i] * force[j];
+        let along = |length: f64| [length * k.normal[0], length * k.normal[1]];
+        add_dyad(&mut sum, along(arm), force);
+        let b_arm = match c.pair.a {
+            Side::Grain(a) => {
+                to_regions(a, along(k.radius_a - 0.5 * k.overlap), force);
+                k.radius_b - 0.5 * k.overlap
             }
-        }
+            Side::Wall(_) => arm,
+        };
+        to_regions(c.pair.b, along(b_arm), force);
         match c.pair.a {
             Side::Wall(w) => {
                 m.wall_contacts += 1;
@@ -94,13 +142,18 @@ pub fn measure(
                 continue;
             }
             let branch = f.map(|v| grains.radius[g] * v / size);
-            for (i, row) in sum.iter_mut().enumerate() {
-                for (j, s) in row.iter_mut().enumerate() {
-                    *s += branch[i] * f[j];
-                }
-            }
+            add_dyad(&mut sum, branch, f);
+            to_regions(g, branch, f);
         }
     }
+    m.region_stress = regions
+        .iter()
+        .zip(&region_sums)
+        .map(|(r, s)| s.map(|row| row.map(|v| v / (r.area() * depth))))
+        .collect();
+    let n = grains.len().max(1) as f64;
+    m.mean_rotation = grains.rotation.iter().sum::<f64>() / n;
+    m.mean_absolute_rotation = grains.rotation.iter().map(|r| r.abs()).sum::<f64>() / n;
     m.broken_bonds = contacts.broken_bonds.len();
     m.volume = enclosed_area(grains, walls, boundary).map_or(f64::NAN, |a| a * depth);
     m.macro_stress = sum.map(|row| row.map(|s| s / m.volume));
@@ -244,4 +297,30 @@ pub fn ring_stresses(
             (0.5 * (r0 + r1), sums[k][0] / volume, sums[k][1] / volume)
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn mean_rotation_and_mean_absolute_rotation() {
+        let grains = GrainSet::from_parts(
+            vec![[0.0, 0.0], [1.0, 0.0], [2.0, 0.0], [3.0, 0.0]],
+            vec![[0.0, 0.0]; 4],
+            vec![0.1, -0.3, 0.2, 0.4],
+            vec![0.5; 4],
+        );
+        let m = measure(
+            &grains,
+            &WallSet::default(),
+            &ContactSet::default(),
+            MembraneBoundary::default(),
+            1.0,
+            &[],
+        );
+        assert!((m.mean_rotation - 0.1).abs() < 1e-15);
+        assert!((m.mean_absolute_rotation - 0.25).abs() < 1e-15);
+        assert!(m.region_stress.is_empty());
+    }
 }

@@ -369,7 +369,9 @@ fn history_unit(name: &str) -> &'static str {
         "volume" => "m^3",
         "wall_position" | "wall_slide" => "m",
         "wall_normal_force" | "wall_shear_force" => "N",
-        n if n.starts_with("macro_stress") || n.ends_with("stress") => "Pa",
+        "mean_rotation" | "mean_absolute_rotation" => "rad",
+        n if n.starts_with("macro_stress") || n.starts_with("region_stress") => "Pa",
+        n if n.ends_with("stress") => "Pa",
         _ => "-",
     }
 }
@@ -383,7 +385,7 @@ fn csv_name(name: &str) -> String {
 
 /// Write the curves as CSV: one row per complete written increment, a header naming each
 /// column with its unit (`name [unit]`). The columns are every `/history` dataset as
-/// stored (per-wall ones as `name:wall`), then the strains and stresses derived from them:
+/// stored (per-wall ones as `name:wall`, per-region ones as `name:region`), then the strains and stresses derived from them:
 /// axial strain and the stresses along the wall pairs (when the axis is a strain) and the
 /// volumetric strain.
 pub fn write_csv(
@@ -415,6 +417,17 @@ pub fn write_csv(
                 history_unit(name)
             ));
             columns.push(rows.iter().map(|r| float(&r[w])).collect());
+        }
+    }
+    for (name, rows) in &history.regions {
+        for (k, region) in header.regions.iter().enumerate() {
+            head.push(format!(
+                "{name}:{} [{}]",
+                csv_name(&region.name),
+                history_unit(name)
+            ));
+            let cell = |r: &Vec<f64>| r.get(k).map_or("nan".into(), float);
+            columns.push(rows.iter().map(cell).collect());
         }
     }
     // Derived columns; the others' curves are copies of `/history` columns.
@@ -457,6 +470,7 @@ mod tests {
             fixed_rotations: false,
             law: "linear".into(),
             membranes: Vec::new(),
+            regions: Vec::new(),
         }
     }
 
@@ -501,6 +515,7 @@ mod tests {
                 ("wall_stress", vec![vec![1.0; walls]; 2]),
             ],
             membrane_pressure: vec![Vec::new(); 2],
+            regions: Vec::new(),
         }
     }
 

@@ -32,6 +32,7 @@ use crate::error::Error;
 use crate::geometry::{
     Circle, GrainSet, Membrane, MembraneShape, Pair, Side, Wall, WallControl, WallSet,
 };
+use crate::measure::Region;
 use crate::solver::stats::{Counters, SolverStats, StageTimers};
 use crate::state::{IncrementReport, State};
 
@@ -70,6 +71,8 @@ pub struct RunHeader {
     pub law: String,
     /// Membranes: names and shapes (their pressures come from each increment).
     pub membranes: Vec<Membrane>,
+    /// Regions whose stress `/history` keeps.
+    pub regions: Vec<Region>,
 }
 
 /// The part of a [`Wall`] that never changes; position, slide and applied stress come from
@@ -138,6 +141,7 @@ pub struct ResultFile {
     grains: usize,
     walls: usize,
     membranes: usize,
+    regions: usize,
     history_rows: usize,
 }
 
@@ -157,6 +161,7 @@ impl ResultFile {
                 &file.create_group("history")?,
                 header.walls.len(),
                 header.membranes.len(),
+                header.regions.len(),
             )?;
             Ok(())
         };
@@ -167,6 +172,7 @@ impl ResultFile {
             grains: header.radius.len(),
             walls: header.walls.len(),
             membranes: header.membranes.len(),
+            regions: header.regions.len(),
             history_rows: 0,
         })
     }
@@ -203,12 +209,13 @@ impl ResultFile {
         // Read-only first: a file that is not a whole result file is bad input, and is left
         // as it is.
         let (header, state, incomplete, keep) = read_for_resume(path)?;
-        let (walls, membranes) = (header.walls.len(), header.membranes.len());
+        let widths = Widths::of(&header);
         let out = ResultFile {
             path: to.to_path_buf(),
             grains: header.radius.len(),
-            walls,
-            membranes,
+            walls: widths.walls,
+            membranes: widths.membranes,
+            regions: widths.regions,
             history_rows: keep,
         };
         // The file read whole, but deleting in it may still find it corrupt: bad input too.
@@ -217,7 +224,7 @@ impl ResultFile {
             for name in &incomplete {
                 inc.unlink(name)?;
             }
-            truncate_history(&file.group("history")?, keep, walls, membranes)
+            truncate_history(&file.group("history")?, keep, widths)
         })?;
         Ok((out, header, state))
     }
@@ -225,6 +232,14 @@ impl ResultFile {
     /// The file's path.
     pub fn path(&self) -> &Path {
         &self.path
+    }
+
+    fn widths(&self) -> Widths {
+        Widths {
+            walls: self.walls,
+            membranes: self.membranes,
+            regions: self.regions,
+        }
     }
 
     /// Write a converged (committed) state with its report as group
@@ -320,12 +335,11 @@ impl ResultFile {
         if inc.link_exists(&name) {
             inc.unlink(&name)?;
             rows = leading_rows(&history, |j| j < k as i64)?;
-            truncate_history(&history, rows, self.walls, self.membranes)?;
+            truncate_history(&history, rows, self.widths())?;
         }
         let g = inc.create_group(&name)?;
         write_group_state(&g, state, report)?;
-        append_history(&history, rows, self.walls, state, report)?;
-        append_membrane_row(&history, rows, state)?;
+        append_history(&history, rows, self.widths(), state, report)?;
         write_summary_group(file, stats)?;
         // Last: only now is the increment whole.
         set_attr(&g, "complete", &1u8)?;
@@ -443,6 +457,8 @@ pub struct History {
     pub walls: Vec<(&'static str, Vec<Vec<f64>>)>,
     /// Each membrane's pressure (Pa), one row of `M` values per increment.
     pub membrane_pressure: Vec<Vec<f64>>,
+    /// Per-region columns (dataset name, one row of `R` values per increment).
+    pub regions: Vec<(&'static str, Vec<Vec<f64>>)>,
 }
 
 impl History {
@@ -479,6 +495,14 @@ impl History {
             .find(|(n, _)| *n == name)
             .map_or(&[], |(_, v)| v)
     }
+
+    /// A per-region column by dataset name (empty when there is none).
+    pub fn region(&self, name: &str) -> &[Vec<f64>] {
+        self.regions
+            .iter()
+            .find(|(n, _)| *n == name)
+            .map_or(&[], |(_, v)| v)
+    }
 }
 
 /// The `/history` table, keeping only rows whose increment group is complete: a run killed
@@ -507,9 +531,13 @@ pub fn read_history(path: impl AsRef<Path>) -> Result<History, Error> {
                 Ok((name, keep.iter().map(|&r| v[r]).collect()))
             })
             .collect::<R<Vec<_>>>()?;
+        // Columns added since a file was written read as unknown.
         let floats = HISTORY_FLOAT
             .iter()
-            .map(|&name| Ok((name, pick(read_vec::<f64>(&h, name, None)?))))
+            .map(|&name| match h.link_exists(name) {
+                true => Ok((name, pick(read_vec::<f64>(&h, name, None)?))),
+                false => Ok((name, vec![f64::NAN; keep.len()])),
+            })
             .collect::<R<Vec<_>>>()?;
         let wall_columns = HISTORY_WALL
             .iter()
@@ -528,29 +556,16 @@ pub fn read_history(path: impl AsRef<Path>) -> Result<History, Error> {
                 Ok((name, rows))
             })
             .collect::<R<Vec<_>>>()?;
-        // Files written before the membranes' pressures were kept have none.
-        let mut membrane_pressure = Vec::new();
-        if h.link_exists(MEMBRANE_PRESSURE) {
-            let ds = dataset(&h, MEMBRANE_PRESSURE)?;
-            let membranes = ds.shape().get(1).copied().unwrap_or(0);
-            let raw = ds
-                .read_raw::<f64>()
-                .map_err(|e| Fail(format!("dataset `/history/{MEMBRANE_PRESSURE}`: {e}")))?;
-            if raw.len() < rows * membranes {
-                return Err(Fail(format!(
-                    "dataset `/history/{MEMBRANE_PRESSURE}` is short"
-                )));
-            }
-            membrane_pressure = keep
-                .iter()
-                .map(|&r| raw[r * membranes..(r + 1) * membranes].to_vec())
-                .collect();
-        }
+        let regions = REGION_STRESS
+            .iter()
+            .map(|&name| Ok((name, read_table(&h, name, rows, &keep)?)))
+            .collect::<R<Vec<_>>>()?;
         Ok(History {
             ints,
             floats,
             walls: wall_columns,
-            membrane_pressure,
+            membrane_pressure: read_table(&h, MEMBRANE_PRESSURE, rows, &keep)?,
+            regions,
         })
     };
     read().map_err(read_error(path))
@@ -849,7 +864,8 @@ fn write_header(file: &File, h: &RunHeader) -> R<()> {
     put(&grains, "index", index.view())?;
 
     write_walls(&file.create_group("walls")?, &h.walls)?;
-    write_membranes(file, &h.membranes)
+    write_membranes(file, &h.membranes)?;
+    write_regions(file, &h.regions)
 }
 
 /// The static part of walls, one row per wall, into `group` (`/walls` of a result file).
@@ -950,7 +966,36 @@ fn read_header(file: &File) -> R<RunHeader> {
         fixed_rotations: get_attr::<u8>(file, "fixed_rotations")? != 0,
         law: get_str_attr(file, "law")?,
         membranes: read_membranes(file)?,
+        regions: read_regions(file)?,
     })
+}
+
+/// Regions as their names and shapes (see [`Region::to_row`]).
+fn write_regions(file: &File, regions: &[Region]) -> R<()> {
+    let group = file.create_group("regions")?;
+    let names: Vec<String> = regions.iter().map(|r| r.name.clone()).collect();
+    put_strings(&group, "name", &names)?;
+    let shape: Vec<[f64; 5]> = regions.iter().map(Region::to_row).collect();
+    put(&group, "shape", ArrayView2::from(&shape[..]))?;
+    Ok(())
+}
+
+/// The regions of a file; none in a file written before regions were measured.
+fn read_regions(file: &File) -> R<Vec<Region>> {
+    if !file.link_exists("regions") {
+        return Ok(Vec::new());
+    }
+    let group = file.group("regions")?;
+    let names = read_vec::<VarLenUnicode>(&group, "name", None)?;
+    let shape = read_rows::<f64, 5>(&group, "shape", Some(names.len()))?;
+    names
+        .iter()
+        .zip(shape)
+        .map(|(name, row)| {
+            Region::from_row(name.as_str().to_owned(), row)
+                .ok_or_else(|| Fail(format!("region `{name}` has an unknown shape {}", row[0])))
+        })
+        .collect()
 }
 
 /// Membranes as kind (0 a side, 1 a ring) and the side's outward direction or the ring's
@@ -1280,7 +1325,7 @@ const HISTORY_INT: [&str; 13] = [
     "increment",
 ];
 
-const HISTORY_FLOAT: [&str; 7] = [
+const HISTORY_FLOAT: [&str; 9] = [
     "residual",
     "contacts_per_grain",
     "macro_stress_xx",
@@ -1288,6 +1333,8 @@ const HISTORY_FLOAT: [&str; 7] = [
     "macro_stress_xy",
     "macro_stress_yx",
     "volume",
+    "mean_rotation",
+    "mean_absolute_rotation",
 ];
 
 const HISTORY_WALL: [&str; 6] = [
@@ -1302,15 +1349,48 @@ const HISTORY_WALL: [&str; 6] = [
 /// Each membrane's pressure: a row of `M` values per increment, like the walls' columns.
 const MEMBRANE_PRESSURE: &str = "membrane_pressure";
 
-fn create_history(h: &Group, walls: usize, membranes: usize) -> R<()> {
-    let filtered = |b: hdf5::DatasetBuilder| {
-        let b = b.shuffle();
-        if hdf5::filters::deflate_available() {
-            b.deflate(4)
-        } else {
-            b
+/// Each region's stress (eq. A.40), a row of `R` values per component and increment.
+const REGION_STRESS: [&str; 4] = [
+    "region_stress_xx",
+    "region_stress_yy",
+    "region_stress_xy",
+    "region_stress_yx",
+];
+
+/// The widths of the per-wall, per-membrane and per-region `/history` tables.
+#[derive(Debug, Clone, Copy)]
+struct Widths {
+    walls: usize,
+    membranes: usize,
+    regions: usize,
+}
+
+impl Widths {
+    fn of(header: &RunHeader) -> Widths {
+        Widths {
+            walls: header.walls.len(),
+            membranes: header.membranes.len(),
+            regions: header.regions.len(),
         }
-    };
+    }
+
+    /// The tables beside the walls', with their widths.
+    fn tables(self) -> impl Iterator<Item = (&'static str, usize)> {
+        std::iter::once((MEMBRANE_PRESSURE, self.membranes))
+            .chain(REGION_STRESS.iter().map(move |&n| (n, self.regions)))
+    }
+}
+
+fn filtered(b: hdf5::DatasetBuilder) -> hdf5::DatasetBuilder {
+    let b = b.shuffle();
+    if hdf5::filters::deflate_available() {
+        b.deflate(4)
+    } else {
+        b
+    }
+}
+
+fn create_history(h: &Group, walls: usize, membranes: usize, regions: usize) -> R<()> {
     for name in HISTORY_INT {
         filtered(h.new_dataset_builder())
             .empty::<i64>()
@@ -1319,61 +1399,85 @@ fn create_history(h: &Group, walls: usize, membranes: usize) -> R<()> {
             .create(name)?;
     }
     for name in HISTORY_FLOAT {
-        filtered(h.new_dataset_builder())
-            .empty::<f64>()
-            .shape(0..)
-            .chunk(HISTORY_CHUNK)
-            .create(name)?;
+        create_float_column(h, name)?;
     }
-    // No walls: a zero-width fixed dimension cannot be chunked, so let it grow too.
-    let second = if walls == 0 {
-        Extent::resizable(0)
-    } else {
-        Extent::fixed(walls)
-    };
     for name in HISTORY_WALL {
-        filtered(h.new_dataset_builder())
-            .empty::<f64>()
-            .shape(vec![Extent::resizable(0), second])
-            .chunk((HISTORY_CHUNK, walls.max(1)))
-            .create(name)?;
+        create_table(h, name, walls)?;
     }
-    create_membrane_pressure(h, membranes)
-}
-
-fn create_membrane_pressure(h: &Group, membranes: usize) -> R<()> {
-    let second = if membranes == 0 {
-        Extent::resizable(0)
-    } else {
-        Extent::fixed(membranes)
+    let widths = Widths {
+        walls,
+        membranes,
+        regions,
     };
-    h.new_dataset_builder()
-        .empty::<f64>()
-        .shape(vec![Extent::resizable(0), second])
-        .chunk((HISTORY_CHUNK, membranes.max(1)))
-        .create(MEMBRANE_PRESSURE)?;
+    for (name, width) in widths.tables() {
+        create_table(h, name, width)?;
+    }
     Ok(())
 }
 
-fn append_membrane_row(h: &Group, row: usize, state: &State) -> R<()> {
-    let pressure: Vec<f64> = state.membranes.iter().map(|m| m.pressure).collect();
-    let ds = dataset(h, MEMBRANE_PRESSURE)?;
-    ds.resize([row + 1, pressure.len()])?;
-    if !pressure.is_empty() {
-        let view = ArrayView2::from_shape((1, pressure.len()), &pressure[..])?;
+fn create_float_column(h: &Group, name: &str) -> R<()> {
+    filtered(h.new_dataset_builder())
+        .empty::<f64>()
+        .shape(0..)
+        .chunk(HISTORY_CHUNK)
+        .create(name)?;
+    Ok(())
+}
+
+/// A growable table of `width` columns, one row per increment.
+fn create_table(h: &Group, name: &str, width: usize) -> R<()> {
+    // No columns: a zero-width fixed dimension cannot be chunked, so let it grow too.
+    let second = if width == 0 {
+        Extent::resizable(0)
+    } else {
+        Extent::fixed(width)
+    };
+    filtered(h.new_dataset_builder())
+        .empty::<f64>()
+        .shape(vec![Extent::resizable(0), second])
+        .chunk((HISTORY_CHUNK, width.max(1)))
+        .create(name)?;
+    Ok(())
+}
+
+fn append_table_row(h: &Group, name: &str, row: usize, values: &[f64]) -> R<()> {
+    let ds = dataset(h, name)?;
+    ds.resize([row + 1, values.len()])?;
+    if !values.is_empty() {
+        let view = ArrayView2::from_shape((1, values.len()), values)?;
         ds.write_slice(view, s![row..row + 1, ..])?;
     }
     Ok(())
 }
 
+/// The rows `keep` of a table; none from a file written before the table was kept.
+fn read_table(h: &Group, name: &str, rows: usize, keep: &[usize]) -> R<Vec<Vec<f64>>> {
+    if !h.link_exists(name) {
+        return Ok(Vec::new());
+    }
+    let ds = dataset(h, name)?;
+    let width = ds.shape().get(1).copied().unwrap_or(0);
+    let raw = ds
+        .read_raw::<f64>()
+        .map_err(|e| Fail(format!("dataset `/history/{name}`: {e}")))?;
+    if raw.len() < rows * width {
+        return Err(Fail(format!("dataset `/history/{name}` is short")));
+    }
+    Ok(keep
+        .iter()
+        .map(|&r| raw[r * width..(r + 1) * width].to_vec())
+        .collect())
+}
+
 fn append_history(
     h: &Group,
     row: usize,
-    walls: usize,
+    widths: Widths,
     state: &State,
     report: &IncrementReport,
 ) -> R<()> {
     let m = &report.measurements;
+    let walls = widths.walls;
     let ints: [i64; 13] = [
         state.stage as i64,
         state.stage_increment as i64,
@@ -1389,7 +1493,7 @@ fn append_history(
         state.contacts.broken_bonds.len() as i64,
         state.increment as i64,
     ];
-    let floats: [f64; 7] = [
+    let floats: [f64; 9] = [
         report.residual,
         m.contacts_per_grain,
         m.macro_stress[0][0],
@@ -1397,6 +1501,8 @@ fn append_history(
         m.macro_stress[0][1],
         m.macro_stress[1][0],
         m.volume,
+        m.mean_rotation,
+        m.mean_absolute_rotation,
     ];
     let column = |f: fn(&Wall) -> f64| -> Vec<f64> { state.walls.walls.iter().map(f).collect() };
     let wall_rows: [Vec<f64>; 6] = [
@@ -1408,12 +1514,17 @@ fn append_history(
         per_wall(&m.wall_stress, walls),
     ];
     for (name, values) in HISTORY_WALL.iter().zip(&wall_rows) {
-        let ds = dataset(h, name)?;
-        ds.resize([row + 1, walls])?;
-        if walls > 0 {
-            let view = ArrayView2::from_shape((1, walls), &values[..])?;
-            ds.write_slice(view, s![row..row + 1, ..])?;
-        }
+        append_table_row(h, name, row, values)?;
+    }
+    let pressure: Vec<f64> = state.membranes.iter().map(|m| m.pressure).collect();
+    append_table_row(h, MEMBRANE_PRESSURE, row, &pressure)?;
+    for (name, [i, j]) in REGION_STRESS.iter().zip([[0, 0], [1, 1], [0, 1], [1, 0]]) {
+        // A report without measurements (the probe of a resume) has none: unknown.
+        let stress: Vec<f64> = match m.region_stress.len() == widths.regions {
+            true => m.region_stress.iter().map(|s| s[i][j]).collect(),
+            false => vec![f64::NAN; widths.regions],
+        };
+        append_table_row(h, name, row, &stress)?;
     }
     for (name, value) in HISTORY_FLOAT.iter().zip(floats) {
         append_scalar(h, name, row, value)?;
@@ -1435,7 +1546,7 @@ fn append_scalar<T: H5Type>(h: &Group, name: &str, row: usize, value: T) -> R<()
 }
 
 /// Number of leading history rows whose increment passes `keep`, and that every history
-/// dataset holds.
+/// dataset holds (those added since the file was written are made by `truncate_history`).
 fn leading_rows(h: &Group, keep: impl Fn(i64) -> bool) -> R<usize> {
     let increments = read_vec::<i64>(h, "increment", None)?;
     let mut rows = increments.iter().take_while(|&&k| keep(k)).count();
@@ -1443,33 +1554,51 @@ fn leading_rows(h: &Group, keep: impl Fn(i64) -> bool) -> R<usize> {
         .iter()
         .chain(&HISTORY_FLOAT)
         .chain(&HISTORY_WALL)
+        .chain(&REGION_STRESS)
     {
-        rows = rows.min(dataset(h, name)?.shape().first().copied().unwrap_or(0));
+        if h.link_exists(name) {
+            rows = rows.min(dataset(h, name)?.shape().first().copied().unwrap_or(0));
+        }
     }
     Ok(rows)
 }
 
-fn truncate_history(h: &Group, rows: usize, walls: usize, membranes: usize) -> R<()> {
-    for name in HISTORY_INT.iter().chain(&HISTORY_FLOAT) {
+fn truncate_history(h: &Group, rows: usize, widths: Widths) -> R<()> {
+    for name in HISTORY_INT {
+        dataset(h, name)?.resize([rows])?;
+    }
+    for name in HISTORY_FLOAT {
+        // A file from before this column was kept gets it, unknown so far.
+        if !h.link_exists(name) {
+            create_float_column(h, name)?;
+            let ds = dataset(h, name)?;
+            ds.resize([rows])?;
+            if rows > 0 {
+                let unknown = vec![f64::NAN; rows];
+                ds.write_slice(ArrayView1::from(&unknown[..]), s![..])?;
+            }
+        }
         dataset(h, name)?.resize([rows])?;
     }
     for name in HISTORY_WALL {
-        dataset(h, name)?.resize([rows, walls])?;
+        dataset(h, name)?.resize([rows, widths.walls])?;
     }
-    // A file from before the membranes' pressures were kept gets them, unknown so far.
-    if !h.link_exists(MEMBRANE_PRESSURE) {
-        create_membrane_pressure(h, membranes)?;
-        let ds = dataset(h, MEMBRANE_PRESSURE)?;
-        ds.resize([rows, membranes])?;
-        if rows * membranes > 0 {
-            let unknown = vec![f64::NAN; rows * membranes];
-            ds.write_slice(
-                ArrayView2::from_shape((rows, membranes), &unknown[..])?,
-                s![.., ..],
-            )?;
+    for (name, width) in widths.tables() {
+        // Likewise a table: the membranes' pressures, the regions' stresses.
+        if !h.link_exists(name) {
+            create_table(h, name, width)?;
+            let ds = dataset(h, name)?;
+            ds.resize([rows, width])?;
+            if rows * width > 0 {
+                let unknown = vec![f64::NAN; rows * width];
+                ds.write_slice(
+                    ArrayView2::from_shape((rows, width), &unknown[..])?,
+                    s![.., ..],
+                )?;
+            }
         }
+        dataset(h, name)?.resize([rows, width])?;
     }
-    dataset(h, MEMBRANE_PRESSURE)?.resize([rows, membranes])?;
     Ok(())
 }
 

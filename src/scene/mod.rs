@@ -46,6 +46,9 @@ pub struct Scene {
     /// Membranes: pressure on the outermost grains, following them.
     #[serde(default)]
     pub membranes: Vec<MembraneSpec>,
+    /// Regions whose stress is measured from their grains' contact forces (eq. A.40).
+    #[serde(default)]
+    pub regions: Vec<RegionSpec>,
     /// The load program: stages applied one after another.
     #[serde(default)]
     pub stages: Vec<Stage>,
@@ -103,6 +106,12 @@ pub struct Material {
     /// Which radius product the bond strength uses.
     #[serde(default)]
     pub cohesion_radius: CohesionRadius,
+    /// Anisotropic cohesion (thesis 4.4.4): the bond strength of a horizontal contact as a
+    /// fraction of a vertical one's, in [0, 1] (the thesis's breakout cylinder: 0.5). In
+    /// between it goes as `F_t(theta) = F_t (f cos^2 theta + sin^2 theta)`, `theta` the
+    /// angle of the contact normal from the horizontal. Default 1: isotropic.
+    #[serde(default = "one_f64")]
+    pub cohesion_horizontal: f64,
     /// Bond every grain-grain contact present at the start (cemented sample).
     #[serde(default)]
     pub bonded: bool,
@@ -112,6 +121,10 @@ pub struct Material {
     /// Depth `D` (m) that turns 2D forces into stresses; default: the mean grain diameter.
     #[serde(default)]
     pub depth: Option<f64>,
+}
+
+fn one_f64() -> f64 {
+    1.0
 }
 
 fn default_poisson() -> f64 {
@@ -447,4 +460,30 @@ pub struct MembraneSpec {
     /// Pressure at the start (Pa).
     #[serde(default)]
     pub pressure: f64,
+}
+
+/// A region of the plane, fixed in space, whose stress is measured each increment from the
+/// contact forces on the grains whose centres lie in it (eq. A.40 over the region's area):
+/// a rectangle (`min`, `max`), a circle (`center`, `radius`) or a ring (also
+/// `inner_radius`).
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct RegionSpec {
+    /// Name in the result file and the curves.
+    pub name: String,
+    /// A rectangle's lower left corner (m).
+    #[serde(default)]
+    pub min: Option<[f64; 2]>,
+    /// A rectangle's upper right corner (m).
+    #[serde(default)]
+    pub max: Option<[f64; 2]>,
+    /// A circle's or ring's centre (m).
+    #[serde(default)]
+    pub center: Option<[f64; 2]>,
+    /// A circle's radius, a ring's outer radius (m).
+    #[serde(default)]
+    pub radius: Option<f64>,
+    /// A ring's inner radius (m).
+    #[serde(default)]
+    pub inner_radius: Option<f64>,
 }

@@ -40,6 +40,7 @@ pub(crate) fn validate(scene: &Scene) -> Vec<(String, String)> {
     }
     let walls = walls(scene, &mut p);
     stages(scene, &walls, &mut p);
+    regions(&scene.regions, &mut p);
     if scene.output.every == 0 {
         p.push(
             "output.every",
@@ -264,6 +265,20 @@ fn material(m: &Material, p: &mut Problems) {
     }
     p.friction("material.friction", m.friction);
     p.non_negative("material.cohesion", m.cohesion);
+    let f = m.cohesion_horizontal;
+    if !(f.is_finite() && (0.0..=1.0).contains(&f)) {
+        p.push(
+            "material.cohesion_horizontal",
+            format!(
+                "must be in [0, 1] (a horizontal bond's strength over a vertical one's), not {f}"
+            ),
+        );
+    } else if f != 1.0 && m.law == LawKind::Hertz {
+        p.push(
+            "material.cohesion_horizontal",
+            "anisotropic cohesion needs the linear law (`law = \"linear\"`); Hertz contacts have no bonds",
+        );
+    }
     if m.law == LawKind::Hertz {
         if m.cohesion > 0.0 {
             p.push(
@@ -495,6 +510,82 @@ fn no_wall(name: &str, walls: &BTreeMap<String, WallControl>) -> String {
             "there is no wall named `{name}`; the walls are {}",
             names.join(", ")
         )
+    }
+}
+
+/// Each region: a name of its own, and either a rectangle (`min` below `max`) or a circle
+/// or ring (`center`, `radius`, `inner_radius` below it), finite.
+fn regions(regions: &[super::RegionSpec], p: &mut Problems) {
+    for (k, r) in regions.iter().enumerate() {
+        let key = |name: &str| format!("regions[{k}].{name}");
+        if r.name.trim().is_empty() {
+            p.push(key("name"), "must name the region");
+        } else if regions[..k].iter().any(|o| o.name == r.name) {
+            p.push(key("name"), format!("`{}` names two regions", r.name));
+        }
+        let rectangle = r.min.is_some() || r.max.is_some();
+        let ring = r.center.is_some() || r.radius.is_some() || r.inner_radius.is_some();
+        match (rectangle, ring) {
+            (true, true) => p.push(
+                key(if r.center.is_some() {
+                    "center"
+                } else {
+                    "radius"
+                }),
+                "a region is a rectangle (`min`, `max`) or a circle (`center`, `radius`, \
+                 perhaps `inner_radius`), not both",
+            ),
+            (false, false) => p.push(
+                key("name"),
+                "give a rectangle (`min`, `max`) or a circle (`center`, `radius`, perhaps \
+                 `inner_radius` for a ring)",
+            ),
+            (true, false) => rectangle_region(r, &key, p),
+            (false, true) => ring_region(r, &key, p),
+        }
+    }
+}
+
+fn rectangle_region(r: &super::RegionSpec, key: &dyn Fn(&str) -> String, p: &mut Problems) {
+    let (Some(min), Some(max)) = (r.min, r.max) else {
+        let missing = if r.min.is_none() { "min" } else { "max" };
+        p.push(
+            key(missing),
+            "a rectangle needs both `min` and `max` corners",
+        );
+        return;
+    };
+    let finite = |c: [f64; 2]| c[0].is_finite() && c[1].is_finite();
+    if !finite(min) {
+        p.push(key("min"), "must be finite");
+    } else if !finite(max) {
+        p.push(key("max"), "must be finite");
+    } else if !(max[0] > min[0] && max[1] > min[1]) {
+        p.push(key("max"), "must lie above and to the right of `min`");
+    }
+}
+
+fn ring_region(r: &super::RegionSpec, key: &dyn Fn(&str) -> String, p: &mut Problems) {
+    let (Some(center), Some(radius)) = (r.center, r.radius) else {
+        let missing = if r.center.is_none() {
+            "center"
+        } else {
+            "radius"
+        };
+        p.push(key(missing), "a circle or ring needs `center` and `radius`");
+        return;
+    };
+    if !(center[0].is_finite() && center[1].is_finite()) {
+        p.push(key("center"), "must be finite");
+    }
+    p.positive(&key("radius"), radius);
+    if let Some(inner) = r.inner_radius {
+        if !(inner.is_finite() && inner >= 0.0 && inner < radius) {
+            p.push(
+                key("inner_radius"),
+                format!("must be >= 0 and below `radius` ({radius}), not {inner}"),
+            );
+        }
     }
 }
 

@@ -13,7 +13,7 @@ use crate::contact::{
     kinematics, BrokenBond, Configuration, Contact, ContactLaw, ContactSet, Kinematics, SlipTangent,
 };
 use crate::geometry::{chains, Chain, FriendSet, GrainSet, Pair, WallControl, WallSet};
-use crate::measure::{measure, Measurements, MembraneBoundary};
+use crate::measure::{measure, Measurements, MembraneBoundary, Region};
 use crate::solver::dynamic::{self, SettleSettings};
 use crate::solver::newton::{self, NewtonOutcome, NewtonSettings, SystemMatrix};
 use crate::solver::stats::{secs, StageTimers};
@@ -41,6 +41,8 @@ pub struct Simulation {
     pub stats: SolverStats,
     /// Newton residual history of the last solve (relative residuals, one per iteration).
     pub last_residuals: Vec<f64>,
+    /// Regions whose stress is measured (the scene's `[[regions]]`).
+    pub regions: Vec<Region>,
     law: Box<dyn ContactLaw>,
     r_mean: f64,
     dofs: DofMap,
@@ -157,6 +159,7 @@ impl Simulation {
             stages,
             stats: SolverStats::default(),
             last_residuals: Vec::new(),
+            regions: Vec::new(),
             law,
             r_mean,
             q: Configuration::at_rest(&state.grains, &state.walls),
@@ -879,6 +882,7 @@ impl Simulation {
                 chains: &self.chains,
             },
             self.depth,
+            &self.regions,
         )
     }
 

@@ -9,6 +9,7 @@ use crate::contact::{
 use crate::geometry::{
     Circle, FriendSet, GrainSet, Membrane, MembraneShape, Pair, Side, Wall, WallControl, WallSet,
 };
+use crate::measure::Region;
 use crate::scene::{CircleSide, CohesionRadius, LawKind, Scene};
 use crate::solver::SolverConfig;
 use crate::state::State;
@@ -31,6 +32,8 @@ pub struct MaterialModel {
     pub cohesion: f64,
     /// Radius product of the bond strength.
     pub cohesion_radius: CohesionRadius,
+    /// Bond strength of a horizontal contact over a vertical one's (thesis 4.4.4).
+    pub cohesion_horizontal: f64,
     /// Whether the contacts present at the start are cemented.
     pub bonded: bool,
     /// Whether grain rotations are held fixed.
@@ -49,6 +52,7 @@ impl MaterialModel {
             friction: m.friction.value(),
             cohesion: m.cohesion,
             cohesion_radius: m.cohesion_radius,
+            cohesion_horizontal: m.cohesion_horizontal,
             bonded: m.bonded,
             fixed_rotations: m.fixed_rotations,
         }
@@ -91,7 +95,25 @@ impl MaterialModel {
         }
     }
 
-    /// Properties of a contact between the two sides of `pair`.
+    /// The share of the full bond strength a contact along `branch` gets (thesis 4.4.4): the
+    /// horizontal factor `f` at 0 degrees, 1 at 90, `f cos^2 + sin^2` in between. The thesis
+    /// halves the horizontal bonds without saying how the angles between vary; `cos^2` is the
+    /// smoothest form with those ends, the one a second-order fabric tensor gives.
+    pub fn cohesion_factor(&self, branch: [f64; 2]) -> f64 {
+        let f = self.cohesion_horizontal;
+        if f == 1.0 {
+            return 1.0;
+        }
+        let squared = branch[0] * branch[0] + branch[1] * branch[1];
+        if squared == 0.0 {
+            return 1.0;
+        }
+        let cos2 = branch[0] * branch[0] / squared;
+        f * cos2 + (1.0 - cos2)
+    }
+
+    /// Properties of a contact between the two sides of `pair`; a bond's strength is set by
+    /// the direction of its contact when the contact is made.
     pub fn params(&self, pair: Pair, grains: &GrainSet, walls: &WallSet) -> ContactParams {
         let rb = grains.radius[pair.b];
         let (ra, friction) = match pair.a {
@@ -103,10 +125,15 @@ impl MaterialModel {
             LawKind::Linear => self.normal_stiffness,
             LawKind::Hertz => hertz_stiffness(rbar, self.shear_modulus, self.poisson),
         };
-        let strength = match (ra, self.cohesion_radius) {
-            (None, _) => 0.0,
-            (Some(_), CohesionRadius::Mean) => self.cohesion * rbar * rbar,
-            (Some(ra), CohesionRadius::Product) => self.cohesion * ra * rb,
+        let strength = match (pair.a, self.cohesion_radius) {
+            (Side::Wall(_), _) => 0.0,
+            (Side::Grain(a), radius) => {
+                let size = match radius {
+                    CohesionRadius::Mean => rbar * rbar,
+                    CohesionRadius::Product => grains.radius[a] * rb,
+                };
+                self.cohesion * size * self.cohesion_factor(grains.branch(a, pair.b))
+            }
         };
         ContactParams {
             stiffness,
@@ -355,14 +382,10 @@ impl Simulation {
         let stages = build_stages(scene, &walls, &membranes);
         let state = State::fresh(grains, walls, contacts, membranes);
         let material = MaterialModel::from_scene(scene);
-        Ok(Simulation::from_state(
-            scene.name.clone(),
-            config,
-            material,
-            depth,
-            stages,
-            state,
-        )?)
+        let mut sim =
+            Simulation::from_state(scene.name.clone(), config, material, depth, stages, state)?;
+        sim.regions = scene.regions.iter().map(Region::of_spec).collect();
+        Ok(sim)
     }
 }
 
@@ -477,13 +500,9 @@ impl Simulation {
     ) -> Result<Simulation, Error> {
         let material = MaterialModel::from_scene(scene);
         let stages = build_stages(scene, &state.walls, &state.membranes);
-        Ok(Simulation::from_state(
-            scene.name.clone(),
-            config,
-            material,
-            depth,
-            stages,
-            state,
-        )?)
+        let mut sim =
+            Simulation::from_state(scene.name.clone(), config, material, depth, stages, state)?;
+        sim.regions = scene.regions.iter().map(Region::of_spec).collect();
+        Ok(sim)
     }
 }

@@ -32,10 +32,18 @@ pub fn assert_input_error(out: &Output, expected: &[&str]) {
 }
 
 /// A small crystal scene (`samples::crystal_biaxial`) written to `dir`, written every
-/// `every` increments.
+/// `every` increments, with a region about its centre.
 pub fn crystal_scene(dir: &Path, every: usize) -> PathBuf {
     let mut scene = grainstat::samples::crystal_biaxial(9, 8, 1e6, 3e6);
     scene.output.every = every;
+    scene.regions = vec![grainstat::scene::RegionSpec {
+        name: "core".into(),
+        min: None,
+        max: None,
+        center: Some([8e-4, 7.9e-4]),
+        radius: Some(4e-4),
+        inner_radius: None,
+    }];
     let path = dir.join("crystal.toml");
     std::fs::write(&path, toml::to_string(&scene).unwrap()).unwrap();
     path
@@ -51,6 +59,7 @@ pub fn sandstone() -> MaterialModel {
         friction: 0.6,
         cohesion: 1e8,
         cohesion_radius: CohesionRadius::Mean,
+        cohesion_horizontal: 1.0,
         bonded: true,
         fixed_rotations: false,
     }

@@ -30,6 +30,7 @@ const VALUES: &[&str] = &[
 #[rustfmt::skip]
 const KEYS: &[&str] = &[
     "name", "law", "normal_stiffness", "shear_modulus", "poisson", "friction", "cohesion",
+    "cohesion_horizontal", "regions", "[[regions]]", "inner_radius",
     "bonded", "fixed_rotations", "depth", "cohesion_radius", "file", "x", "y", "r", "crystal",
     "rows", "columns", "radius", "short_first", "sample", "walls", "stress_controlled",
     "stress", "point", "normal", "control", "length", "center", "grains", "increments",
