@@ -541,6 +541,7 @@ mod tests {
                 center: [0.0, 0.0],
                 radius,
                 grains_inside: inside,
+                moves: None,
             }),
             ..line(name, [0.0, 0.0], 0.0, WallControl::Stress)
         };

@@ -142,6 +142,7 @@ fn region_walls(region: &Region, stress: f64) -> WallSet {
                     center: [0.0; 2],
                     radius,
                     grains_inside,
+                    moves: None,
                 }),
                 ..line(name, [0.0; 2], 0.0, true)
             };

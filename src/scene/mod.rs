@@ -430,6 +430,15 @@ pub struct CircleSpec {
     /// Stress at the start (Pa) (stress-controlled).
     #[serde(default)]
     pub stress: f64,
+    /// A plug whose centre moves, in this direction (normalised), instead of growing: a
+    /// loading point. Its stress is its force along the direction over `2 radius depth`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub moves: Option<[f64; 2]>,
+    /// Bring a moving plug from `center` along `moves` (either way) to where it first touches
+    /// the grains, so supports and a loading point start in contact with a sample whose
+    /// grains the scene cannot know exactly.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub touch: bool,
 }
 
 /// A membrane: a pressure on the outermost grains that follows them.
