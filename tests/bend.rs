@@ -141,3 +141,145 @@ fn crystal_beam_deflects_as_beam_theory_says() {
         "deflection {deflection} against {theory}"
     );
 }
+
+/// A 300-grain sandstone beam (table 8, type A, length / height 4.5, 10 bar), as
+/// `examples/sample-beam.toml` makes its 600.
+const SAMPLE: &str = r#"name = "small-beam"
+[material]
+law = "linear"
+normal_stiffness = 1e6
+poisson = 0.16
+friction = 0.6
+cohesion = 1e8
+bonded = true
+[sample]
+region = "beam"
+aspect = 4.5
+grains = 300
+distribution = { kind = "a", mean_radius = 1e-4, ratio = 4.0 }
+seed = 1
+friction = 0.0
+stress = 1e6
+"#;
+
+/// The bend test of `examples/bend-test.toml` on a beam spanning `x0..x1` above `y0` with
+/// its top at `y1`: supports `overhang` in from the ends, the load at mid-span.
+fn bend_scene(box_: [f64; 4], overhang: f64) -> String {
+    let [x0, y0, x1, y1] = box_;
+    let plug = 5e-4;
+    format!(
+        r#"name = "small-bend"
+[material]
+law = "linear"
+normal_stiffness = 1e6
+poisson = 0.16
+friction = 0.6
+cohesion = 1e8
+bonded = true
+[grains]
+sample = "beam.h5"
+walls = {{}}
+[[circles]]
+name = "left"
+center = [{left:e}, {below:e}]
+radius = {plug:e}
+grains = "outside"
+moves = [0.0, 1.0]
+touch = true
+friction = "glued"
+[[circles]]
+name = "right"
+center = [{right:e}, {below:e}]
+radius = {plug:e}
+grains = "outside"
+moves = [0.0, 1.0]
+touch = true
+[[circles]]
+name = "load"
+center = [{middle:e}, {above:e}]
+radius = {plug:e}
+grains = "outside"
+moves = [0.0, -1.0]
+touch = true
+[[stages]]
+name = "bend"
+increments = 200
+displacement = {{ load = 1e-4 }}
+until_failure = true
+failure_drop = 0.5
+"#,
+        left = x0 + overhang,
+        right = x1 - overhang,
+        middle = 0.5 * (x0 + x1),
+        below = y0 - 2.0 * plug,
+        above = y1 + 2.0 * plug,
+    )
+}
+
+#[test]
+fn prepared_beam_breaks_first_at_the_bottom_near_mid_span_and_the_test_ends_there() {
+    let dir = tempfile::tempdir().unwrap();
+    let sample_scene = dir.path().join("sample.toml");
+    std::fs::write(&sample_scene, SAMPLE).unwrap();
+    let sample = dir.path().join("beam.h5");
+    let out = common::grainstat(&[
+        "generate",
+        sample_scene.to_str().unwrap(),
+        "-o",
+        sample.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", common::stderr(&out));
+    let grains = grainstat::sample::read_sample(&sample).unwrap().grains;
+    let [x0, y0, x1, y1] = grains.bounding_box();
+    let overhang = 0.08 * (x1 - x0);
+    let scene = dir.path().join("bend.toml");
+    std::fs::write(&scene, bend_scene([x0, y0, x1, y1], overhang)).unwrap();
+    let result = dir.path().join("bend.h5");
+    let out = common::grainstat(&[
+        "run",
+        scene.to_str().unwrap(),
+        "-o",
+        result.to_str().unwrap(),
+        "--no-plot",
+        "--quiet",
+    ]);
+    let said = common::stderr(&out);
+    assert_eq!(out.status.code(), Some(0), "{said}");
+    assert!(
+        said.contains("the sample failed") && said.contains("fell to"),
+        "{said}"
+    );
+
+    // The last state is on file, and it is the failure's.
+    let written = grainstat::output::hdf5_file::read_increments(&result).unwrap();
+    let last = *written.last().unwrap();
+    assert!(said.contains(&format!("in increment {last} ")), "{said}");
+    let (_, state) = grainstat::output::hdf5_file::read_state(&result, last).unwrap();
+    let broken = &state.contacts.broken_bonds;
+    let first = broken
+        .iter()
+        .map(|b| b.increment)
+        .min()
+        .expect("bonds broke");
+    // The first bonds to break: below the beam's middle, within a quarter span of mid-span,
+    // in tension.
+    let (middle, span) = (0.5 * (x0 + x1), x1 - x0 - 2.0 * overhang);
+    let mid_height = 0.5 * (y0 + y1);
+    for bond in broken.iter().filter(|b| b.increment == first) {
+        let grainstat::geometry::Side::Grain(a) = bond.pair.a else {
+            panic!("a bond with a wall: {bond:?}");
+        };
+        let (p, q) = (state.grains.origin[a], state.grains.origin[bond.pair.b]);
+        let at = [0.5 * (p[0] + q[0]), 0.5 * (p[1] + q[1])];
+        eprintln!(
+            "first broken bond (increment {first}) at {at:?}: {:?}",
+            bond.mode
+        );
+        assert!(at[1] < mid_height, "on the tension side: {at:?}");
+        assert!(
+            (at[0] - middle).abs() < 0.25 * span,
+            "near mid-span: {at:?}"
+        );
+        assert_eq!(bond.mode, grainstat::contact::BreakMode::Tension);
+    }
+}

@@ -224,6 +224,7 @@ pub fn prepare(
         pressure: Vec::new(),
         control: Vec::new(),
         until_failure: false,
+        failure_drop: None,
     };
     let state = State::fresh(grains, walls, contacts, Vec::new());
     // The consistent tangent: near rest many contacts sit on the Coulomb limit, where the

@@ -321,6 +321,12 @@ pub struct Stage {
     /// an error (exit status 3).
     #[serde(default)]
     pub until_failure: bool,
+    /// In a stage loaded until failure, the sample has failed too once the force on a wall
+    /// the stage pushes (displacement-controlled and moved) falls below this fraction of its
+    /// peak in the stage: a brittle beam that breaks through may still find an equilibrium
+    /// in pieces. The increment that shows the drop is written and ends the test.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub failure_drop: Option<f64>,
 }
 
 /// Where the state goes.

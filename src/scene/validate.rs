@@ -440,6 +440,17 @@ fn stages(scene: &Scene, walls: &BTreeMap<String, WallControl>, p: &mut Problems
                 format!("brings the load program to more than {MAX_INCREMENTS:.0e} increments"),
             );
         }
+        if let Some(drop) = s.failure_drop {
+            let key = format!("{at}.failure_drop");
+            if !(drop > 0.0 && drop < 1.0) {
+                p.push(key, "must be between 0 and 1: a fraction of the peak force");
+            } else if !s.until_failure {
+                p.push(
+                    key,
+                    "needs `until_failure = true`: the drop ends a test loaded to failure",
+                );
+            }
+        }
         for (name, &control) in &s.control {
             let key = child_key(&format!("{at}.control"), name);
             if scene.membranes.iter().any(|m| &m.name == name) {

@@ -138,6 +138,9 @@ pub struct StageProgram {
     /// Whether an increment that does not converge ends the test as the sample's failure
     /// rather than as an error (see [`crate::scene::Stage::until_failure`]).
     pub until_failure: bool,
+    /// The fraction of its peak force below which a pushed wall's force means failure (see
+    /// [`crate::scene::Stage::failure_drop`]).
+    pub failure_drop: Option<f64>,
 }
 
 /// The walls of a scene: the four of `box` (bottom, right, top, left) on the grains' bounding
@@ -286,6 +289,7 @@ pub fn build_stages(scene: &Scene, walls: &WallSet, membranes: &[Membrane]) -> V
                 pressure: vec![None; membranes.len()],
                 control: control.clone(),
                 until_failure: s.until_failure,
+                failure_drop: s.failure_drop,
             };
             for (name, v) in &s.stress {
                 if let Some(w) = index(name) {
