@@ -128,23 +128,23 @@ impl std::fmt::Display for Failure {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "the sample failed in increment {} (stage '{}'): {}; loads carried in equilibrium: {} \
-             (last complete increment {})",
-            self.increment,
-            self.stage,
-            self.cause,
-            self.loads(),
-            self.last_increment
-        )
+            "the sample failed in increment {} (stage '{}'): {}",
+            self.increment, self.stage, self.cause
+        )?;
+        // A test under displacement control alone carries no applied stresses.
+        if !self.carried.is_empty() {
+            write!(f, "; loads carried in equilibrium: {}", self.loads())?;
+        }
+        write!(f, " (last complete increment {})", self.last_increment)
     }
 }
 
 /// Run the load program to its end, or, in a stage loaded until failure, to the increment
-/// that finds no equilibrium. The state is written to `file` after every `every`-th
-/// increment, at the end of every stage and after the last increment; the numeric
-/// factorisation is refreshed at the same
-/// points (file or not), so a run resumed from a written increment repeats the same
-/// arithmetic. `on_increment` sees every converged increment. A failed increment writes the
+/// that finds no equilibrium or shows its `failure_drop` (the peaks counted from where this
+/// call started). The state is written to `file` after every `every`-th increment, at the
+/// end of every stage and after the last increment; the numeric factorisation is refreshed
+/// at the same points (file or not), so a run resumed from a written increment repeats the
+/// same arithmetic. `on_increment` sees every converged increment. A failed increment writes the
 /// last converged increment if it is not on file yet; it is an error unless its stage is
 /// loaded until failure.
 pub fn run_to_end(
