@@ -67,15 +67,45 @@ pub enum RunEnd {
     Failed(Failure),
 }
 
-/// Where a sample failed: the increment that found no equilibrium, and the loads it carried.
+/// Why a sample counts as failed.
+#[derive(Debug, Clone, PartialEq)]
+pub enum FailureCause {
+    /// The increment found no equilibrium: the solver's error.
+    NoEquilibrium(NumericError),
+    /// The force on a pushed wall fell below a fraction of its peak
+    /// ([`crate::scene::Stage::failure_drop`]).
+    LoadDrop {
+        /// The wall.
+        wall: String,
+        /// Its largest force in the stage (N).
+        peak: f64,
+        /// Its force now (N).
+        force: f64,
+    },
+}
+
+impl std::fmt::Display for FailureCause {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            FailureCause::NoEquilibrium(error) => write!(f, "{error}"),
+            FailureCause::LoadDrop { wall, peak, force } => write!(
+                f,
+                "the force on `{wall}` fell to {force:.4e} N from its peak of {peak:.4e} N"
+            ),
+        }
+    }
+}
+
+/// Where a sample failed: the increment that found no equilibrium (or showed the load drop),
+/// and the loads it carried.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Failure {
-    /// The increment (1-based) that did not converge.
+    /// The increment (1-based) that did not converge or showed the drop.
     pub increment: usize,
     /// Name of its stage.
     pub stage: String,
-    /// Why: the solver's error.
-    pub error: NumericError,
+    /// Why.
+    pub cause: FailureCause,
     /// The last increment converged in full (0: none).
     pub last_increment: usize,
     /// The highest loads carried in equilibrium, by name (Pa): each membrane's pressure and
@@ -99,23 +129,23 @@ impl std::fmt::Display for Failure {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "the sample failed in increment {} (stage '{}'): {}; loads carried in equilibrium: {} \
-             (last complete increment {})",
-            self.increment,
-            self.stage,
-            self.error,
-            self.loads(),
-            self.last_increment
-        )
+            "the sample failed in increment {} (stage '{}'): {}",
+            self.increment, self.stage, self.cause
+        )?;
+        // A test under displacement control alone carries no applied stresses.
+        if !self.carried.is_empty() {
+            write!(f, "; loads carried in equilibrium: {}", self.loads())?;
+        }
+        write!(f, " (last complete increment {})", self.last_increment)
     }
 }
 
 /// Run the load program to its end, or, in a stage loaded until failure, to the increment
-/// that finds no equilibrium. The state is written to `file` after every `every`-th
-/// increment, at the end of every stage and after the last increment; the numeric
-/// factorisation is refreshed at the same
-/// points (file or not), so a run resumed from a written increment repeats the same
-/// arithmetic. `on_increment` sees every converged increment. A failed increment writes the
+/// that finds no equilibrium or shows its `failure_drop` (the peaks counted from where this
+/// call started). The state is written to `file` after every `every`-th increment, at the
+/// end of every stage and after the last increment; the numeric factorisation is refreshed
+/// at the same points (file or not), so a run resumed from a written increment repeats the
+/// same arithmetic. `on_increment` sees every converged increment. A failed increment writes the
 /// last converged increment if it is not on file yet; it is an error unless its stage is
 /// loaded until failure.
 pub fn run_to_end(
@@ -125,6 +155,7 @@ pub fn run_to_end(
     mut on_increment: impl FnMut(&Simulation, &IncrementReport),
 ) -> Result<RunEnd, Error> {
     let mut unwritten: Option<IncrementReport> = None;
+    let mut peaks = PeakForces::default();
     while !sim.is_finished() {
         let report = match sim.run_increment() {
             Ok(report) => report,
@@ -143,7 +174,9 @@ pub fn run_to_end(
                     NumericError::NotConverged { .. } | NumericError::Singular { .. }
                 );
                 if stage.until_failure && no_equilibrium {
-                    return Ok(RunEnd::Failed(failure(sim, err)));
+                    let cause = FailureCause::NoEquilibrium(err);
+                    let at = (sim.state.increment + 1, sim.state.stage);
+                    return Ok(RunEnd::Failed(failure(sim, cause, at)));
                 }
                 return Err(err.into());
             }
@@ -160,14 +193,60 @@ pub fn run_to_end(
             }
             unwritten = None;
         } else {
-            unwritten = Some(report);
+            unwritten = Some(report.clone());
+        }
+        if let Some(cause) = peaks.drop(sim, &report) {
+            if let (Some(f), Some(last)) = (file.as_deref_mut(), unwritten.take()) {
+                f.write_increment(&sim.state, &last, &sim.stats)?;
+            }
+            let at = (report.increment, report.stage);
+            return Ok(RunEnd::Failed(failure(sim, cause, at)));
         }
     }
     Ok(RunEnd::Finished)
 }
 
-/// The failure of the increment after the simulation's committed one.
-fn failure(sim: &Simulation, error: NumericError) -> Failure {
+/// The largest force on each wall in the current stage, for [`FailureCause::LoadDrop`].
+#[derive(Debug, Default)]
+struct PeakForces {
+    stage: usize,
+    peak: Vec<f64>,
+}
+
+impl PeakForces {
+    /// The load drop that `report` shows, if its stage watches for one.
+    fn drop(&mut self, sim: &Simulation, report: &IncrementReport) -> Option<FailureCause> {
+        let stage = &sim.stages[report.stage];
+        let fraction = stage.failure_drop.filter(|_| stage.until_failure)?;
+        let force = &report.measurements.wall_normal_force;
+        if self.stage != report.stage || self.peak.len() != force.len() {
+            *self = PeakForces {
+                stage: report.stage,
+                peak: vec![0.0; force.len()],
+            };
+        }
+        let walls = &sim.state.walls.walls;
+        for (w, wall) in walls.iter().enumerate() {
+            let pushed = wall.control == crate::geometry::WallControl::Displacement
+                && stage.normal_move[w] != 0.0;
+            if !pushed {
+                continue;
+            }
+            self.peak[w] = self.peak[w].max(force[w]);
+            if force[w] < fraction * self.peak[w] {
+                return Some(FailureCause::LoadDrop {
+                    wall: wall.name.clone(),
+                    peak: self.peak[w],
+                    force: force[w],
+                });
+            }
+        }
+        None
+    }
+}
+
+/// The failure in `(increment, stage)`, with the loads of the simulation's committed state.
+fn failure(sim: &Simulation, cause: FailureCause, (increment, stage): (usize, usize)) -> Failure {
     let state = &sim.state;
     let membranes = state.membranes.iter().map(|m| (m.name.clone(), m.pressure));
     let walls = state
@@ -177,9 +256,9 @@ fn failure(sim: &Simulation, error: NumericError) -> Failure {
         .filter(|w| w.control == crate::geometry::WallControl::Stress)
         .map(|w| (w.name.clone(), w.stress));
     Failure {
-        increment: state.increment + 1,
-        stage: sim.stages[state.stage].name.clone(),
-        error,
+        increment,
+        stage: sim.stages[stage].name.clone(),
+        cause,
         last_increment: state.increment,
         carried: membranes.chain(walls).collect(),
     }

@@ -60,6 +60,11 @@ stress = 1e5
     )
 }
 
+/// `BASE` with a plug far above the crystal, given `grains` and its motion in `extra`.
+fn circle(extra: &str) -> String {
+    format!("{BASE}[[circles]]\nname = \"plug\"\ncenter = [0.0, 1.0]\nradius = 1e-4\n{extra}\n")
+}
+
 /// `BASE` with `old` replaced by `new`; the replacement must happen.
 fn base_with(old: &str, new: &str) -> String {
     assert!(BASE.contains(old), "`{old}` not in BASE");
@@ -244,6 +249,45 @@ fn bad_scenes_are_exit_status_2_naming_file_key_and_line() {
                 "region-shapeless.toml".into(),
                 "regions[0].name".into(),
                 "rectangle".into(),
+            ],
+        ),
+        (
+            "moving-ring.toml",
+            circle("grains = \"inside\"\nmoves = [0.0, -1.0]"),
+            vec![
+                "moving-ring.toml".into(),
+                "circles[0].moves".into(),
+                "only a plug".into(),
+            ],
+        ),
+        (
+            "zero-move.toml",
+            circle("grains = \"outside\"\nmoves = [0.0, 0.0]"),
+            vec![
+                "zero-move.toml".into(),
+                "circles[0].moves".into(),
+                "not be zero".into(),
+            ],
+        ),
+        (
+            "touch-unmoving.toml",
+            circle("grains = \"outside\"\ntouch = true"),
+            vec!["touch-unmoving.toml".into(), "circles[0].touch".into()],
+        ),
+        (
+            "drop-too-big.toml",
+            base_with(
+                "increments = 2",
+                "increments = 2\nuntil_failure = true\nfailure_drop = 1.5",
+            ),
+            vec!["drop-too-big.toml".into(), "stages[0].failure_drop".into()],
+        ),
+        (
+            "drop-not-to-failure.toml",
+            base_with("increments = 2", "increments = 2\nfailure_drop = 0.5"),
+            vec![
+                "drop-not-to-failure.toml".into(),
+                "until_failure = true".into(),
             ],
         ),
         (

@@ -544,6 +544,7 @@ fn circular_walls_and_membranes_read_back() {
             center: [1.0, 1.0],
             radius: 1.25,
             grains_inside: true,
+            moves: None,
         }),
         ..wall("ring", [0.0; 2], 0.0)
     };
@@ -552,6 +553,7 @@ fn circular_walls_and_membranes_read_back() {
             center: [1.0, 1.0],
             radius: 0.25,
             grains_inside: false,
+            moves: Some([0.6, -0.8]),
         }),
         ..ring.clone()
     };

@@ -51,6 +51,7 @@ fn stage(
         pressure,
         control: Vec::new(),
         until_failure: false,
+        failure_drop: None,
     }
 }
 

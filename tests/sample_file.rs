@@ -61,6 +61,7 @@ fn prepared(n: usize, region: Region) -> SampleFile {
                         center: [1e-3, 2e-3],
                         radius: 5e-3,
                         grains_inside: true,
+                        moves: None,
                     }),
                 },
             ],

@@ -2,7 +2,7 @@
 //! finds no equilibrium, as a success that says where and at which loads; in any other
 //! stage that increment stays an error.
 
-use grainstat::run::{run_to_end, RunEnd};
+use grainstat::run::{run_to_end, FailureCause, RunEnd};
 use grainstat::scene::build_grains;
 use grainstat::simulation::Simulation;
 use grainstat::solver::SolverConfig;
@@ -40,7 +40,10 @@ fn a_stage_loaded_until_failure_ends_there_as_a_success() {
     assert_eq!(failure.increment, 1);
     assert_eq!(failure.last_increment, 0);
     assert_eq!(failure.stage, sim.stages[0].name);
-    assert!(matches!(failure.error, NumericError::NotConverged { .. }));
+    assert!(matches!(
+        failure.cause,
+        FailureCause::NoEquilibrium(NumericError::NotConverged { .. })
+    ));
     // The loads carried: the stress-controlled walls as they started.
     assert!(!failure.carried.is_empty());
     for (name, stress) in &failure.carried {

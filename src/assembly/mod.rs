@@ -67,8 +67,10 @@ impl DofMap {
 
     /// The reduced unknowns of a pair and, for each of the 6 local entries
     /// `[xa, ya, phia, xb, yb, phib]`, which reduced unknown it feeds and with what weight.
-    /// A wall's unknown (its move into the sample) feeds `xa, ya` along the contact normal `n`:
-    /// moving it by `s` changes the overlap by `s`, as moving a grain `a` by `s n` would.
+    /// A wall's unknown (its move into the sample) feeds `xa, ya` along `n`, the direction it
+    /// moves side `a` ([`crate::geometry::Wall::push_direction`]): for a line or a growing
+    /// circle the contact normal, so moving it by `s` changes the overlap by `s`, as moving a
+    /// grain `a` by `s n` would; for a moving plug the direction of its centre.
     pub fn pair_map(&self, pair: Pair, n: [f64; 2]) -> PairMap {
         let mut m = PairMap::default();
         match pair.a {

@@ -15,8 +15,11 @@ pub struct Configuration {
     pub rotation: Vec<f64>,
     /// Current wall surface constants: `offset + position` of a line, the radius of a circle.
     pub wall_line: Vec<f64>,
-    /// Wall displacement vector since the start of the increment.
+    /// Wall displacement vector since the start of the increment (a line's, a moving
+    /// plug's centre's; zero for a circle that only grows).
     pub wall_displacement: Vec<[f64; 2]>,
+    /// Each wall's move into the sample since the start (m): its `position` now.
+    pub wall_position: Vec<f64>,
 }
 
 impl Configuration {
@@ -28,6 +31,7 @@ impl Configuration {
             rotation: vec![0.0; grains.len()],
             wall_line: walls.walls.iter().map(|w| w.surface(w.position)).collect(),
             wall_displacement: vec![[0.0; 2]; walls.len()],
+            wall_position: walls.walls.iter().map(|w| w.position).collect(),
         }
     }
 }
@@ -90,12 +94,14 @@ pub fn kinematics(pair: Pair, grains: &GrainSet, walls: &WallSet, q: &Configurat
             let wall = &walls.walls[w];
             let (ob, db) = (grains.origin[b], grains.displacement[b]);
             if let Some(circle) = &wall.circle {
-                // Like a contact with a fixed disc whose radius is the wall's: the normal turns
-                // as the grain moves, the other way round inside a ring.
-                let c = circle.center;
+                // Like a contact with a disc whose radius is the wall's: the normal turns as the
+                // grain (or a moving plug) moves, the other way round inside a ring.
+                let c = circle.center_at(wall.position);
+                let uw = q.wall_displacement[w];
+                let du = [ub[0] - uw[0], ub[1] - uw[1]];
                 let d = [
-                    (ob[0] - c[0]) + (db[0] + ub[0]),
-                    (ob[1] - c[1]) + (db[1] + ub[1]),
+                    (ob[0] - c[0]) + (db[0] + du[0]),
+                    (ob[1] - c[1]) + (db[1] + du[1]),
                 ];
                 let len = d[0].hypot(d[1]);
                 let e = [d[0] / len, d[1] / len];
@@ -111,8 +117,8 @@ pub fn kinematics(pair: Pair, grains: &GrainSet, walls: &WallSet, q: &Configurat
                     tangent: t,
                     distance,
                     overlap,
-                    shear_increment: ub[0] * t[0] + ub[1] * t[1] - rb * q.rotation[b],
-                    shear_scale: 1.0 - (ub[0] * n[0] + ub[1] * n[1]) / distance,
+                    shear_increment: du[0] * t[0] + du[1] * t[1] - rb * q.rotation[b],
+                    shear_scale: 1.0 - (du[0] * n[0] + du[1] * n[1]) / distance,
                     radius_a: 0.0,
                     radius_b: rb,
                     flat: false,

@@ -134,6 +134,9 @@ pub struct Circle {
     pub radius: f64,
     /// Whether the grains are inside the circle (a ring) or outside it (a plug).
     pub grains_inside: bool,
+    /// Unit direction in which a plug's centre moves, its radius fixed (a loading point
+    /// pushed into a beam); `None`: the centre stays and the radius changes.
+    pub moves: Option<[f64; 2]>,
 }
 
 impl Circle {
@@ -145,11 +148,31 @@ impl Circle {
             1.0
         }
     }
+
+    /// The centre after the wall moved `position` into the sample.
+    pub fn center_at(&self, position: f64) -> [f64; 2] {
+        match self.moves {
+            Some(m) => [
+                self.center[0] + position * m[0],
+                self.center[1] + position * m[1],
+            ],
+            None => self.center,
+        }
+    }
+
+    /// The radius after the wall moved `position` into the sample.
+    pub fn radius_at(&self, position: f64) -> f64 {
+        match self.moves {
+            Some(_) => self.radius,
+            None => self.radius + self.sign() * position,
+        }
+    }
 }
 
 /// A rigid wall: a straight line `normal . x = offset + position` with the grains on the side
 /// the normal points to, or a circle. A line moves along its normal (`position`) and along
-/// itself (`slide`); a circle grows or shrinks (`position`, into the sample positive).
+/// itself (`slide`); a circle grows or shrinks, or a plug's centre moves along its `moves`
+/// (`position`, into the sample positive).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Wall {
     /// Name from the scene.
@@ -179,7 +202,7 @@ impl Wall {
     /// `offset + position`, or the circle's current radius.
     pub fn surface(&self, position: f64) -> f64 {
         match &self.circle {
-            Some(c) => c.radius + c.sign() * position,
+            Some(c) => c.radius_at(position),
             None => self.offset + position,
         }
     }
@@ -208,10 +231,21 @@ impl Wall {
         let surface = self.surface(self.position);
         match &self.circle {
             Some(c) => {
-                let from_center = (x[0] - c.center[0]).hypot(x[1] - c.center[1]);
+                let center = c.center_at(self.position);
+                let from_center = (x[0] - center[0]).hypot(x[1] - center[1]);
                 -c.sign() * (surface - from_center)
             }
             None => self.normal[0] * x[0] + self.normal[1] * x[1] - surface,
+        }
+    }
+
+    /// The direction in which a unit move of this wall carries its side of a contact whose
+    /// normal is `normal`: the centre's direction for a moving plug, else the normal itself
+    /// (a line moves along it; a growing circle's surface moves out along it).
+    pub fn push_direction(&self, normal: [f64; 2]) -> [f64; 2] {
+        match self.circle.and_then(|c| c.moves) {
+            Some(m) => m,
+            None => normal,
         }
     }
 

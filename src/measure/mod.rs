@@ -12,9 +12,10 @@ use crate::geometry::{polygon_area, Chain, GrainSet, Membrane, MembraneShape, Si
 /// Measurements of one state.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Measurements {
-    /// Normal force of the grains on each wall (N).
+    /// Normal force of the grains on each wall (N); on a moving plug, along its direction.
     pub wall_normal_force: Vec<f64>,
-    /// Shear force of the grains on each wall, along its tangent (N).
+    /// Shear force of the grains on each wall, along its tangent (N) (the direction turned a
+    /// quarter anticlockwise, for a moving plug).
     pub wall_shear_force: Vec<f64>,
     /// Normal stress on each wall: force / (loaded length * depth) (Pa); between membranes the
     /// loaded length is the grains' extent along the wall.
@@ -127,8 +128,17 @@ pub fn measure(
         match c.pair.a {
             Side::Wall(w) => {
                 m.wall_contacts += 1;
-                m.wall_normal_force[w] += fn_;
-                m.wall_shear_force[w] += fs;
+                match walls.walls[w].circle.and_then(|c| c.moves) {
+                    // A moving plug: the force along its direction and across it.
+                    Some(d) => {
+                        m.wall_normal_force[w] += force[0] * d[0] + force[1] * d[1];
+                        m.wall_shear_force[w] += force[1] * d[0] - force[0] * d[1];
+                    }
+                    None => {
+                        m.wall_normal_force[w] += fn_;
+                        m.wall_shear_force[w] += fs;
+                    }
+                }
             }
             Side::Grain(_) => m.grain_contacts += 1,
         }

@@ -556,6 +556,7 @@ mod tests {
                 center: [0.0, 0.0],
                 radius,
                 grains_inside: inside,
+                moves: None,
             }),
             ..line(name, [0.0, 0.0], 0.0, WallControl::Stress)
         };

@@ -899,6 +899,12 @@ pub(crate) fn write_walls(group: &Group, walls: &[WallHeader]) -> R<()> {
         })
         .collect();
     put(group, "circle", ArrayView2::from(&circle[..]))?;
+    // The direction a moving plug's centre goes; NaN for lines and circles that grow.
+    let moves: Vec<[f64; 2]> = walls
+        .iter()
+        .map(|w| w.circle.and_then(|c| c.moves).unwrap_or([f64::NAN; 2]))
+        .collect();
+    put(group, "circle_moves", ArrayView2::from(&moves[..]))?;
     Ok(())
 }
 
@@ -911,6 +917,10 @@ pub(crate) fn read_walls(group: &Group, w: usize) -> R<Vec<WallHeader>> {
     let friction = read_vec::<f64>(group, "friction", Some(w))?;
     let length = read_vec::<f64>(group, "length", Some(w))?;
     let circle = read_rows::<f64, 4>(group, "circle", Some(w))?;
+    let moves = match group.link_exists("circle_moves") {
+        true => read_rows::<f64, 2>(group, "circle_moves", Some(w))?,
+        false => vec![[f64::NAN; 2]; w],
+    };
     (0..w)
         .map(|k| {
             let control = match control[k].as_str() {
@@ -929,6 +939,7 @@ pub(crate) fn read_walls(group: &Group, w: usize) -> R<Vec<WallHeader>> {
                     center: [circle[k][0], circle[k][1]],
                     radius: circle[k][2],
                     grains_inside: circle[k][3] != 0.0,
+                    moves: (!moves[k][0].is_nan()).then_some(moves[k]),
                 }),
             })
         })

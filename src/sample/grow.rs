@@ -408,7 +408,8 @@ fn contact(
             }
             let n = match &wall.circle {
                 Some(c) => {
-                    let d = [xb[0] - c.center[0], xb[1] - c.center[1]];
+                    let center = c.center_at(wall.position);
+                    let d = [xb[0] - center[0], xb[1] - center[1]];
                     let len = d[0].hypot(d[1]);
                     let e = [d[0] / len, d[1] / len];
                     if c.grains_inside {

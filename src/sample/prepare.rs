@@ -142,6 +142,7 @@ fn region_walls(region: &Region, stress: f64) -> WallSet {
                     center: [0.0; 2],
                     radius,
                     grains_inside,
+                    moves: None,
                 }),
                 ..line(name, [0.0; 2], 0.0, true)
             };
@@ -223,6 +224,7 @@ pub fn prepare(
         pressure: Vec::new(),
         control: Vec::new(),
         until_failure: false,
+        failure_drop: None,
     };
     let state = State::fresh(grains, walls, contacts, Vec::new());
     // The consistent tangent: near rest many contacts sit on the Coulomb limit, where the

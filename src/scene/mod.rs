@@ -334,6 +334,12 @@ pub struct Stage {
     /// an error (exit status 3).
     #[serde(default)]
     pub until_failure: bool,
+    /// In a stage loaded until failure, the sample has failed too once the force on a wall
+    /// the stage pushes (displacement-controlled and moved) falls below this fraction of its
+    /// peak in the stage: a brittle beam that breaks through may still find an equilibrium
+    /// in pieces. The increment that shows the drop is written and ends the test.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub failure_drop: Option<f64>,
 }
 
 /// Where the state goes.
@@ -443,6 +449,15 @@ pub struct CircleSpec {
     /// Stress at the start (Pa) (stress-controlled).
     #[serde(default)]
     pub stress: f64,
+    /// A plug whose centre moves, in this direction (normalised), instead of growing: a
+    /// loading point. Its stress is its force along the direction over `2 radius depth`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub moves: Option<[f64; 2]>,
+    /// Bring a moving plug from `center` along `moves` (either way) to where it first touches
+    /// the grains, so supports and a loading point start in contact with a sample whose
+    /// grains the scene cannot know exactly.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub touch: bool,
 }
 
 /// A membrane: a pressure on the outermost grains that follows them.

@@ -5,7 +5,7 @@
 //! Each problem is a (key path, message) pair; the loader turns the path into a line.
 
 use super::load::child_key;
-use super::{Friction, GrainSource, LawKind, Material, Scene, WallControl, BOX_SIDES};
+use super::{CircleSide, Friction, GrainSource, LawKind, Material, Scene, WallControl, BOX_SIDES};
 use crate::contact::ContactSet;
 use crate::geometry::{gap_between, GrainSet, Side, WallSet};
 use std::collections::BTreeMap;
@@ -387,6 +387,28 @@ fn walls(scene: &Scene, p: &mut Problems) -> BTreeMap<String, WallControl> {
         p.positive(&format!("{at}.radius"), c.radius);
         p.friction(&format!("{at}.friction"), c.friction);
         p.finite(&format!("{at}.stress"), c.stress);
+        if c.touch && c.moves.is_none() {
+            p.push(
+                format!("{at}.touch"),
+                "needs `moves`: the direction to bring the plug along",
+            );
+        }
+        if let Some(m) = c.moves {
+            let ok = p.finite(&format!("{at}.moves[0]"), m[0])
+                & p.finite(&format!("{at}.moves[1]"), m[1]);
+            if ok && m[0].hypot(m[1]) == 0.0 {
+                p.push(
+                    format!("{at}.moves"),
+                    "must not be zero: it is the direction the centre moves",
+                );
+            }
+            if c.grains == CircleSide::Inside {
+                p.push(
+                    format!("{at}.moves"),
+                    "only a plug (grains = \"outside\") can move; a ring grows or shrinks",
+                );
+            }
+        }
     }
     // A membrane is loaded like a stress-controlled wall: by `stress` in the stages.
     for (i, m) in scene.membranes.iter().enumerate() {
@@ -432,6 +454,17 @@ fn stages(scene: &Scene, walls: &BTreeMap<String, WallControl>, p: &mut Problems
                 format!("{at}.increments"),
                 format!("brings the load program to more than {MAX_INCREMENTS:.0e} increments"),
             );
+        }
+        if let Some(drop) = s.failure_drop {
+            let key = format!("{at}.failure_drop");
+            if !(drop > 0.0 && drop < 1.0) {
+                p.push(key, "must be between 0 and 1: a fraction of the peak force");
+            } else if !s.until_failure {
+                p.push(
+                    key,
+                    "needs `until_failure = true`: the drop ends a test loaded to failure",
+                );
+            }
         }
         for (name, &control) in &s.control {
             let key = child_key(&format!("{at}.control"), name);

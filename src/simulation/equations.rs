@@ -276,9 +276,11 @@ impl IncrementEquations<'_> {
         let t = wall.tangent();
         let s = self.step.slide[w];
         self.q.wall_line[w] = wall.surface(wall.position + normal_move);
-        // A circle's centre stays; a line moves along its normal and along itself.
+        self.q.wall_position[w] = wall.position + normal_move;
+        // A growing circle's centre stays, a moving plug's goes along its direction; a line
+        // moves along its normal and along itself.
         self.q.wall_displacement[w] = match wall.circle {
-            Some(_) => [0.0; 2],
+            Some(c) => c.moves.map_or([0.0; 2], |m| m.map(|v| normal_move * v)),
             None => [
                 normal_move * wall.normal[0] + s * t[0],
                 normal_move * wall.normal[1] + s * t[1],
@@ -416,6 +418,16 @@ impl IncrementEquations<'_> {
                     }
                 }
             }
+        }
+    }
+
+    /// The direction a wall's unknown moves its side of contact `idx` along (see
+    /// [`crate::geometry::Wall::push_direction`]); unused for a grain pair.
+    pub(super) fn push_direction(&self, pair: Pair, idx: usize) -> [f64; 2] {
+        let normal = self.kin[idx].normal;
+        match pair.a {
+            Side::Wall(w) => self.walls.walls[w].push_direction(normal),
+            Side::Grain(_) => normal,
         }
     }
 
@@ -587,7 +599,7 @@ impl Equations for IncrementEquations<'_> {
         for (idx, c) in self.contacts.iter().enumerate() {
             sum_fn += c.response.normal_force.abs();
             let p = self.pair_index[idx];
-            let map = self.dofs.pair_map(c.pair, self.kin[idx].normal);
+            let map = self.dofs.pair_map(c.pair, self.push_direction(c.pair, idx));
             let block = contact_block(&self.kin[idx], &c.response, &map, self.symmetric);
             for a in 0..map.len {
                 residual[map.dofs[a]] += block.force[a];

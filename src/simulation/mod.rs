@@ -1019,5 +1019,25 @@ mod tests {
         }
         let e = tangent_error(&scene, LinearKind::Lu, SlipTangent::Consistent);
         assert!(e < 1e-5, "membranes: relative error {e:e}");
+        // A frictional plug whose centre moves obliquely, its move an unknown: it overlaps the
+        // two top grains it sits between by a thousandth of their radius.
+        let mut scene = samples::crystal_biaxial(5, 6, 1e6, 3e6);
+        let r = 1e-4;
+        let top = r + 4.0 * 3f64.sqrt() * r;
+        let rise = ((2.999 * r).powi(2) - r * r).sqrt();
+        scene.circles.push(crate::scene::CircleSpec {
+            name: "punch".into(),
+            center: [6.0 * r, top + rise],
+            radius: 2.0 * r,
+            grains: crate::scene::CircleSide::Outside,
+            friction: crate::scene::Friction::Coefficient(0.5),
+            control: WallControl::Stress,
+            stress: 1e5,
+            moves: Some([0.3, -1.0]),
+            touch: false,
+        });
+        scene.stages[0].stress.insert("punch".into(), 2e5);
+        let e = tangent_error(&scene, LinearKind::Lu, SlipTangent::Consistent);
+        assert!(e < 1e-5, "moving plug: relative error {e:e}");
     }
 }

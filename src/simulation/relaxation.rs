@@ -156,10 +156,7 @@ impl<'a> GrainByGrain<'a> {
             }
             None => {
                 let w = self.wall_of_block[block - self.eq.grains.len()];
-                let wall = &self.eq.walls.walls[w];
-                // The line constant is offset + position for a line, the radius for a circle.
-                let position = self.eq.q.wall_line[w] - wall.surface(0.0);
-                (position - self.eq.friends.wall_reference[w][0]).abs()
+                (self.eq.q.wall_position[w] - self.eq.friends.wall_reference[w][0]).abs()
             }
         }
     }
@@ -253,7 +250,7 @@ impl BlockEquations for GrainByGrain<'_> {
             let k = self.eq.respond(idx)?;
             self.eq.kin[idx] = k;
             let c = &self.eq.contacts[idx];
-            let map = dofs.pair_map(c.pair, k.normal);
+            let map = dofs.pair_map(c.pair, self.eq.push_direction(c.pair, idx));
             let contact = contact_block(&k, &c.response, &map, self.eq.symmetric);
             // A sliding contact carrying a shear force: its shear displacement along the
             // block's unknowns (the rows of B_t = [-t, -r_a, t, -r_b] that feed them).

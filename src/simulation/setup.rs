@@ -165,6 +165,9 @@ pub struct StageProgram {
     /// Whether an increment that does not converge ends the test as the sample's failure
     /// rather than as an error (see [`crate::scene::Stage::until_failure`]).
     pub until_failure: bool,
+    /// The fraction of its peak force below which a pushed wall's force means failure (see
+    /// [`crate::scene::Stage::failure_drop`]).
+    pub failure_drop: Option<f64>,
 }
 
 /// The walls of a scene: the four of `box` (bottom, right, top, left) on the grains' bounding
@@ -216,6 +219,10 @@ pub fn build_walls(scene: &Scene, grains: &GrainSet) -> WallSet {
         });
     }
     for spec in &scene.circles {
+        let moves = spec.moves.map(|m| {
+            let len = m[0].hypot(m[1]);
+            [m[0] / len, m[1] / len]
+        });
         walls.push(Wall {
             name: spec.name.clone(),
             normal: [0.0; 2],
@@ -224,16 +231,43 @@ pub fn build_walls(scene: &Scene, grains: &GrainSet) -> WallSet {
             slide: 0.0,
             control: spec.control,
             stress: spec.stress,
-            length: None,
+            // A moving plug loads its diameter: its stress is the force over 2 r D.
+            length: moves.map(|_| 2.0 * spec.radius),
             friction: spec.friction.value(),
             circle: Some(Circle {
-                center: spec.center,
+                center: match (moves, spec.touch) {
+                    (Some(m), true) => touching(spec.center, spec.radius, m, grains),
+                    _ => spec.center,
+                },
                 radius: spec.radius,
                 grains_inside: spec.grains == CircleSide::Inside,
+                moves,
             }),
         });
     }
     WallSet { walls }
+}
+
+/// The centre of a plug of `radius` brought from `center` along the unit direction `moves`
+/// to where it first touches one of `grains` (the smallest move, negative when the plug
+/// starts inside the grains); `center` itself when no grain lies across its path.
+fn touching(center: [f64; 2], radius: f64, moves: [f64; 2], grains: &GrainSet) -> [f64; 2] {
+    let first = grains
+        .position
+        .iter()
+        .zip(&grains.radius)
+        .filter_map(|(p, r)| {
+            let d = [p[0] - center[0], p[1] - center[1]];
+            let along = d[0] * moves[0] + d[1] * moves[1];
+            let across = d[0] * moves[1] - d[1] * moves[0];
+            let reach = radius + r;
+            (across.abs() < reach).then(|| along - (reach * reach - across * across).sqrt())
+        })
+        .min_by(f64::total_cmp);
+    match first {
+        Some(s) => [center[0] + s * moves[0], center[1] + s * moves[1]],
+        None => center,
+    }
 }
 
 /// The membranes of a scene.
@@ -282,6 +316,7 @@ pub fn build_stages(scene: &Scene, walls: &WallSet, membranes: &[Membrane]) -> V
                 pressure: vec![None; membranes.len()],
                 control: control.clone(),
                 until_failure: s.until_failure,
+                failure_drop: s.failure_drop,
             };
             for (name, v) in &s.stress {
                 if let Some(w) = index(name) {

@@ -396,11 +396,11 @@ impl SamplePicture<'_> {
 fn touch_point(wall: &Wall, p: [f64; 2]) -> [f64; 2] {
     match &wall.circle {
         Some(c) => {
-            let radius = wall.surface(wall.position);
-            let d = (p[0] - c.center[0]).hypot(p[1] - c.center[1]);
+            let (radius, center) = (wall.surface(wall.position), c.center_at(wall.position));
+            let d = (p[0] - center[0]).hypot(p[1] - center[1]);
             [
-                c.center[0] + radius * (p[0] - c.center[0]) / d,
-                c.center[1] + radius * (p[1] - c.center[1]) / d,
+                center[0] + radius * (p[0] - center[0]) / d,
+                center[1] + radius * (p[1] - center[1]) / d,
             ]
         }
         None => {
@@ -415,15 +415,15 @@ fn touch_point(wall: &Wall, p: [f64; 2]) -> [f64; 2] {
 fn wall_line(wall: &Wall, lo: [f64; 2], hi: [f64; 2]) -> Vec<[f64; 2]> {
     let surface = wall.surface(wall.position);
     match &wall.circle {
-        Some(c) => (0..=180)
-            .map(|k| {
-                let a = k as f64 * std::f64::consts::PI / 90.0;
-                [
-                    c.center[0] + surface * a.cos(),
-                    c.center[1] + surface * a.sin(),
-                ]
-            })
-            .collect(),
+        Some(c) => {
+            let center = c.center_at(wall.position);
+            (0..=180)
+                .map(|k| {
+                    let a = k as f64 * std::f64::consts::PI / 90.0;
+                    [center[0] + surface * a.cos(), center[1] + surface * a.sin()]
+                })
+                .collect()
+        }
         None => {
             let n = wall.normal;
             if n[1].abs() > n[0].abs() {

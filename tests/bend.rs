@@ -1,0 +1,285 @@
+//! The three-point bend test (thesis 2.5, 4): a cemented beam on two support plugs, loaded at
+//! mid-span by a plug whose centre is pushed down. Elastic: the deflection of a crystal beam
+//! against beam theory with the crystal's own moduli; to failure: a prepared beam breaks its
+//! first bonds in tension at the bottom near mid-span, and the test ends at failure with exit
+//! status 0 and its last state written.
+
+mod common;
+
+use grainstat::scene::{build_grains, parse_scene};
+use grainstat::simulation::Simulation;
+use grainstat::solver::SolverConfig;
+use std::path::Path;
+
+/// Grain radius of the crystal beam (m).
+const R: f64 = 1e-4;
+/// Crystal rows (odd: long rows at top and bottom) and grains in a long row.
+const ROWS: usize = 9;
+const COLUMNS: usize = 40;
+/// Distance of each support from the beam's end, in radii.
+const OVERHANG: f64 = 8.0;
+
+/// A hexagonal sandstone crystal (table 8) on two support plugs brought up to its bottom row,
+/// the left one glued (a pin), the right one frictionless (a roller), and a loading plug at
+/// mid-span brought down to its top row and pushed down by `push` in `increments` steps.
+fn crystal_beam(push: f64, increments: usize) -> String {
+    let length = 2.0 * R * COLUMNS as f64;
+    let height = 2.0 * R + 3f64.sqrt() * R * (ROWS - 1) as f64;
+    let (left, right, middle) = (OVERHANG * R, length - OVERHANG * R, 0.5 * length);
+    let plug = 2.0 * R;
+    format!(
+        r#"name = "crystal-bend"
+[material]
+law = "linear"
+normal_stiffness = 1e6
+poisson = 0.16
+friction = 0.6
+cohesion = 1e8
+bonded = true
+[grains.crystal]
+rows = {ROWS}
+columns = {COLUMNS}
+radius = {R:e}
+short_first = false
+[[circles]]
+name = "left"
+center = [{left:e}, {below:e}]
+radius = {plug:e}
+grains = "outside"
+moves = [0.0, 1.0]
+touch = true
+friction = "glued"
+[[circles]]
+name = "right"
+center = [{right:e}, {below:e}]
+radius = {plug:e}
+grains = "outside"
+moves = [0.0, 1.0]
+touch = true
+[[circles]]
+name = "load"
+center = [{middle:e}, {above:e}]
+radius = {plug:e}
+grains = "outside"
+moves = [0.0, -1.0]
+touch = true
+[[stages]]
+name = "bend"
+increments = {increments}
+displacement = {{ load = {push:e} }}
+"#,
+        below = -5.0 * R,
+        above = height + 5.0 * R,
+    )
+}
+
+/// Mean vertical displacement of the bottom-row grains within `reach` of `x` (m).
+fn bottom_deflection(sim: &Simulation, x: f64, reach: f64) -> f64 {
+    let g = &sim.state.grains;
+    let picked: Vec<f64> = (0..g.len())
+        .filter(|&i| g.origin[i][1] < 1.5 * R && (g.origin[i][0] - x).abs() <= reach)
+        .map(|i| g.displacement[i][1])
+        .collect();
+    assert!(!picked.is_empty(), "bottom grains near x = {x}");
+    picked.iter().sum::<f64>() / picked.len() as f64
+}
+
+#[test]
+fn crystal_beam_deflects_as_beam_theory_says() {
+    let scene = parse_scene(&crystal_beam(2e-7, 2), "crystal-bend.toml").unwrap();
+    let grains = build_grains(&scene.grains, Path::new("."), "crystal-bend").unwrap();
+    let mut sim = Simulation::new(&scene, grains, SolverConfig::default(), "crystal-bend").unwrap();
+    let mut force = 0.0;
+    while !sim.is_finished() {
+        let report = sim.run_increment().unwrap();
+        let load = sim
+            .state
+            .walls
+            .walls
+            .iter()
+            .position(|w| w.name == "load")
+            .unwrap();
+        force = report.measurements.wall_normal_force[load];
+    }
+    assert!(
+        force > 0.0,
+        "the beam pushes the loading point back: {force}"
+    );
+    // Deflection: mid-span bottom against the bottom above the supports, so the dents the
+    // plugs make in the grains they touch do not count.
+    let length = 2.0 * R * COLUMNS as f64;
+    let span = length - 2.0 * OVERHANG * R;
+    let support = 0.5
+        * (bottom_deflection(&sim, OVERHANG * R, 2.0 * R)
+            + bottom_deflection(&sim, length - OVERHANG * R, 2.0 * R));
+    let deflection = support - bottom_deflection(&sim, 0.5 * length, 2.0 * R);
+
+    // The crystal's moduli: three contacts per grain at 60 degrees, length 2r, over a cell of
+    // area 2 sqrt(3) r^2 and depth D = 2r, grains turning with the lattice. Then
+    // lambda = c (k_n - k_s), mu = c (k_n + k_s), c = sqrt(3) / (4 D), and in plane stress
+    // E = 8 c k_n (1 + kappa) / (3 + kappa), G = mu.
+    let (kn, nu_mu) = (1e6, 0.16);
+    let kappa = 3.0 * (1.0 - nu_mu) / (2.0 - nu_mu);
+    let depth = 2.0 * R;
+    let c = 3f64.sqrt() / (4.0 * depth);
+    let young = 8.0 * c * kn * (1.0 + kappa) / (3.0 + kappa);
+    let shear = c * kn * (1.0 + kappa);
+    // The beam: height from bottom to top surface, simply supported over `span`.
+    let height = 2.0 * R + 3f64.sqrt() * R * (ROWS - 1) as f64;
+    let inertia = depth * height.powi(3) / 12.0;
+    let bending = force * span.powi(3) / (48.0 * young * inertia);
+    let shearing = force * span / (4.0 * (5.0 / 6.0) * shear * height * depth);
+    let theory = bending + shearing;
+    let error = deflection / theory - 1.0;
+    eprintln!(
+        "F = {force:.4e} N, w = {deflection:.4e} m, theory {theory:.4e} m (bending {bending:.4e}, \
+         shear {shearing:.4e}), error {:.1}%",
+        100.0 * error
+    );
+    assert!(
+        error.abs() < 0.1,
+        "deflection {deflection} against {theory}"
+    );
+}
+
+/// A 300-grain sandstone beam (table 8, type A, length / height 4.5, 10 bar), as
+/// `examples/sample-beam.toml` makes its 600.
+const SAMPLE: &str = r#"name = "small-beam"
+[material]
+law = "linear"
+normal_stiffness = 1e6
+poisson = 0.16
+friction = 0.6
+cohesion = 1e8
+bonded = true
+[sample]
+region = "beam"
+aspect = 4.5
+grains = 300
+distribution = { kind = "a", mean_radius = 1e-4, ratio = 4.0 }
+seed = 1
+friction = 0.0
+stress = 1e6
+"#;
+
+/// The bend test of `examples/bend-test.toml` on a beam spanning `x0..x1` above `y0` with
+/// its top at `y1`: supports `overhang` in from the ends, the load at mid-span.
+fn bend_scene(box_: [f64; 4], overhang: f64) -> String {
+    let [x0, y0, x1, y1] = box_;
+    let plug = 5e-4;
+    format!(
+        r#"name = "small-bend"
+[material]
+law = "linear"
+normal_stiffness = 1e6
+poisson = 0.16
+friction = 0.6
+cohesion = 1e8
+bonded = true
+[grains]
+sample = "beam.h5"
+walls = {{}}
+[[circles]]
+name = "left"
+center = [{left:e}, {below:e}]
+radius = {plug:e}
+grains = "outside"
+moves = [0.0, 1.0]
+touch = true
+friction = "glued"
+[[circles]]
+name = "right"
+center = [{right:e}, {below:e}]
+radius = {plug:e}
+grains = "outside"
+moves = [0.0, 1.0]
+touch = true
+[[circles]]
+name = "load"
+center = [{middle:e}, {above:e}]
+radius = {plug:e}
+grains = "outside"
+moves = [0.0, -1.0]
+touch = true
+[[stages]]
+name = "bend"
+increments = 200
+displacement = {{ load = 1e-4 }}
+until_failure = true
+failure_drop = 0.5
+"#,
+        left = x0 + overhang,
+        right = x1 - overhang,
+        middle = 0.5 * (x0 + x1),
+        below = y0 - 2.0 * plug,
+        above = y1 + 2.0 * plug,
+    )
+}
+
+#[test]
+fn prepared_beam_breaks_first_at_the_bottom_near_mid_span_and_the_test_ends_there() {
+    let dir = tempfile::tempdir().unwrap();
+    let sample_scene = dir.path().join("sample.toml");
+    std::fs::write(&sample_scene, SAMPLE).unwrap();
+    let sample = dir.path().join("beam.h5");
+    let out = common::grainstat(&[
+        "generate",
+        sample_scene.to_str().unwrap(),
+        "-o",
+        sample.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", common::stderr(&out));
+    let grains = grainstat::sample::read_sample(&sample).unwrap().grains;
+    let [x0, y0, x1, y1] = grains.bounding_box();
+    let overhang = 0.08 * (x1 - x0);
+    let scene = dir.path().join("bend.toml");
+    std::fs::write(&scene, bend_scene([x0, y0, x1, y1], overhang)).unwrap();
+    let result = dir.path().join("bend.h5");
+    let out = common::grainstat(&[
+        "run",
+        scene.to_str().unwrap(),
+        "-o",
+        result.to_str().unwrap(),
+        "--no-plot",
+        "--quiet",
+    ]);
+    let said = common::stderr(&out);
+    assert_eq!(out.status.code(), Some(0), "{said}");
+    assert!(
+        said.contains("the sample failed") && said.contains("fell to"),
+        "{said}"
+    );
+
+    // The last state is on file, and it is the failure's.
+    let written = grainstat::output::hdf5_file::read_increments(&result).unwrap();
+    let last = *written.last().unwrap();
+    assert!(said.contains(&format!("in increment {last} ")), "{said}");
+    let (_, state) = grainstat::output::hdf5_file::read_state(&result, last).unwrap();
+    let broken = &state.contacts.broken_bonds;
+    let first = broken
+        .iter()
+        .map(|b| b.increment)
+        .min()
+        .expect("bonds broke");
+    // The first bonds to break: below the beam's middle, within a quarter span of mid-span,
+    // in tension.
+    let (middle, span) = (0.5 * (x0 + x1), x1 - x0 - 2.0 * overhang);
+    let mid_height = 0.5 * (y0 + y1);
+    for bond in broken.iter().filter(|b| b.increment == first) {
+        let grainstat::geometry::Side::Grain(a) = bond.pair.a else {
+            panic!("a bond with a wall: {bond:?}");
+        };
+        let (p, q) = (state.grains.origin[a], state.grains.origin[bond.pair.b]);
+        let at = [0.5 * (p[0] + q[0]), 0.5 * (p[1] + q[1])];
+        eprintln!(
+            "first broken bond (increment {first}) at {at:?}: {:?}",
+            bond.mode
+        );
+        assert!(at[1] < mid_height, "on the tension side: {at:?}");
+        assert!(
+            (at[0] - middle).abs() < 0.25 * span,
+            "near mid-span: {at:?}"
+        );
+        assert_eq!(bond.mode, grainstat::contact::BreakMode::Tension);
+    }
+}
