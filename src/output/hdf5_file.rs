@@ -326,6 +326,8 @@ impl ResultFile {
         write_group_state(&g, state, report)?;
         append_history(&history, rows, self.walls, state, report)?;
         append_membrane_row(&history, rows, state)?;
+        let pivots = report.negative_pivots.map_or(-1, |n| n as i64);
+        append_scalar(&history, NEGATIVE_PIVOTS, rows, pivots)?;
         write_summary_group(file, stats)?;
         // Last: only now is the increment whole.
         set_attr(&g, "complete", &1u8)?;
@@ -500,13 +502,23 @@ pub fn read_history(path: impl AsRef<Path>) -> Result<History, Error> {
             .filter(|&r| complete.binary_search(&increment[r]).is_ok())
             .collect();
         let pick = |v: Vec<f64>| keep.iter().map(|&r| v[r]).collect::<Vec<_>>();
-        let ints = HISTORY_INT
+        let mut ints = HISTORY_INT
             .iter()
             .map(|&name| {
                 let v = read_vec::<i64>(&h, name, None)?;
                 Ok((name, keep.iter().map(|&r| v[r]).collect()))
             })
             .collect::<R<Vec<_>>>()?;
+        // Files written before the stability indicator have none.
+        if h.link_exists(NEGATIVE_PIVOTS) {
+            let v = read_vec::<i64>(&h, NEGATIVE_PIVOTS, None)?;
+            if v.len() < rows {
+                return Err(Fail(format!(
+                    "dataset `/history/{NEGATIVE_PIVOTS}` is short"
+                )));
+            }
+            ints.push((NEGATIVE_PIVOTS, keep.iter().map(|&r| v[r]).collect()));
+        }
         let floats = HISTORY_FLOAT
             .iter()
             .map(|&name| Ok((name, pick(read_vec::<f64>(&h, name, None)?))))
@@ -1302,6 +1314,10 @@ const HISTORY_WALL: [&str; 6] = [
 /// Each membrane's pressure: a row of `M` values per increment, like the walls' columns.
 const MEMBRANE_PRESSURE: &str = "membrane_pressure";
 
+/// The stability indicator of each increment (negative pivots of the tangent; -1: not
+/// counted). Kept apart from the other integer columns, so files written before it read.
+const NEGATIVE_PIVOTS: &str = "negative_pivots";
+
 fn create_history(h: &Group, walls: usize, membranes: usize) -> R<()> {
     let filtered = |b: hdf5::DatasetBuilder| {
         let b = b.shuffle();
@@ -1338,7 +1354,17 @@ fn create_history(h: &Group, walls: usize, membranes: usize) -> R<()> {
             .chunk((HISTORY_CHUNK, walls.max(1)))
             .create(name)?;
     }
+    create_negative_pivots(h)?;
     create_membrane_pressure(h, membranes)
+}
+
+fn create_negative_pivots(h: &Group) -> R<()> {
+    h.new_dataset_builder()
+        .empty::<i64>()
+        .shape(0..)
+        .chunk(HISTORY_CHUNK)
+        .create(NEGATIVE_PIVOTS)?;
+    Ok(())
 }
 
 fn create_membrane_pressure(h: &Group, membranes: usize) -> R<()> {
@@ -1470,6 +1496,16 @@ fn truncate_history(h: &Group, rows: usize, walls: usize, membranes: usize) -> R
         }
     }
     dataset(h, MEMBRANE_PRESSURE)?.resize([rows, membranes])?;
+    // A file from before the stability indicator: not counted so far.
+    if !h.link_exists(NEGATIVE_PIVOTS) {
+        create_negative_pivots(h)?;
+        let ds = dataset(h, NEGATIVE_PIVOTS)?;
+        ds.resize([rows])?;
+        if rows > 0 {
+            ds.write_slice(ArrayView1::from(&vec![-1i64; rows][..]), s![..])?;
+        }
+    }
+    dataset(h, NEGATIVE_PIVOTS)?.resize([rows])?;
     Ok(())
 }
 

@@ -20,6 +20,7 @@ use crate::solver::stats::{secs, StageTimers};
 use crate::solver::{Equations, LinearKind, LinearSolver, SolverConfig, SolverStats, Strategy};
 use crate::state::{IncrementReport, State};
 use crate::NumericError;
+use faer::sparse::SparseColMatRef;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -313,6 +314,7 @@ impl Simulation {
         }
         match result {
             Ok((u, change)) => {
+                report.negative_pivots = self.negative_pivots(step, &u);
                 report.contacts_made += change.made;
                 report.contacts_lost += change.lost;
                 report.bonds_broken += change.broken;
@@ -567,6 +569,78 @@ impl Simulation {
             self.lu = Some(linear);
         }
         result
+    }
+
+    /// The stability indicator at the converged `u` of `step`: the negative pivots of an
+    /// `L D L^T` of the symmetric (elasto-plastic) tangent, unregularised, with every
+    /// displacement-controlled wall freed and held by its reaction as a dead load. Freed,
+    /// a wall adds the sample's stiffness against it (the slope of its load-displacement
+    /// curve, a Schur complement) to the count: a softening sample shows a negative pivot
+    /// even where its walls are moved, as at the peak of a biaxial test.
+    ///
+    /// The tangent is scaled to pivots of order one first (each row and column by
+    /// `1 / sqrt(k u_i)`, `k` the mean diagonal stiffness, `u_i` the unit of the row: a
+    /// congruence, so the count is the same), and pivots above `-PIVOT_THRESHOLD` count as
+    /// zero: rattlers and free rotations leave the tangent singular, and round-off must not
+    /// make them negative. `None` when turned off, with an LU solver, or when the
+    /// factorisation fails.
+    fn negative_pivots(&mut self, step: &LoadStep, u: &[f64]) -> Option<usize> {
+        if !self.config.stability_indicator || self.linear.kind() != LinearKind::Cholesky {
+            return None;
+        }
+        let mut freed = self.state.walls.clone();
+        for wall in &mut freed.walls {
+            wall.control = WallControl::Stress;
+        }
+        let dofs = DofMap::new(
+            self.state.grains.len(),
+            self.material.fixed_rotations,
+            &freed,
+        );
+        let same = dofs == self.dofs;
+        let pattern = if same {
+            Arc::clone(&self.pattern)
+        } else {
+            let links: Vec<(usize, usize)> = self.chains.iter().flat_map(Chain::links).collect();
+            Arc::new(Pattern::build(&self.friends, &dofs, &freed, &links))
+        };
+        // The walls' unknowns at where the step took them.
+        let mut u_freed = vec![0.0; dofs.len];
+        let grain_unknowns = dofs.grains * dofs.per_grain;
+        u_freed[..grain_unknowns].copy_from_slice(&u[..grain_unknowns]);
+        for (w, dof) in dofs.wall.iter().enumerate() {
+            let at = match self.dofs.wall[w] {
+                Some(k) => u[k],
+                None => step.normal_move[w],
+            };
+            u_freed[dof.expect("every wall freed")] = at;
+        }
+        let mut values = vec![0.0; pattern.nnz()];
+        let mut residual = vec![0.0; dofs.len];
+        let mut eq = self.equations(step);
+        eq.dofs = &dofs;
+        eq.pattern = &pattern;
+        eq.slip_tangent = SlipTangent::ElastoPlastic;
+        eq.symmetric = true;
+        let evaluated = eq.evaluate(&u_freed, &mut residual, Some(&mut values));
+        let unit: Vec<f64> = (0..dofs.len).map(|dof| eq.unit_stiffness(dof)).collect();
+        let timers = eq.timers;
+        self.stats.timers.return_map += timers.return_map;
+        self.stats.timers.assembly += timers.assembly;
+        evaluated.ok()?;
+        let scaled = scaled_tangent(&pattern, &values, &unit);
+        let matrix = SparseColMatRef::new(pattern.symbolic.as_ref(), &scaled);
+        let mut fresh;
+        let linear = if same {
+            &mut self.linear
+        } else {
+            fresh = LinearSolver::new(LinearKind::Cholesky);
+            fresh.analyse(&pattern.symbolic, &mut self.stats).ok()?;
+            &mut fresh
+        };
+        linear
+            .negative_pivots(matrix, PIVOT_THRESHOLD, &mut self.stats)
+            .ok()
     }
 
     /// Explicit damped dynamics on the step's equations from `u` (see [`crate::solver::dynamic`]).
@@ -901,6 +975,36 @@ impl Simulation {
         // Evaluation overwrote the trial responses with the committed ones: same values.
         (rel, worst)
     }
+}
+
+/// Pivots of the scaled tangent (of order one) above `-PIVOT_THRESHOLD` count as zero in the
+/// stability indicator.
+const PIVOT_THRESHOLD: f64 = 1e-8;
+
+/// The tangent `values` scaled as `S K S`, `S_ii = 1 / sqrt(k unit_i)`, `k` the mean of
+/// `K_ii / unit_i` over the rows that have stiffness: every diagonal then of order one.
+fn scaled_tangent(pattern: &Pattern, values: &[f64], unit: &[f64]) -> Vec<f64> {
+    let (mut sum, mut count) = (0.0, 0usize);
+    for (dof, &slot) in pattern.diagonal.iter().enumerate() {
+        if values[slot] > 0.0 {
+            sum += values[slot] / unit[dof];
+            count += 1;
+        }
+    }
+    let k = if count > 0 { sum / count as f64 } else { 1.0 };
+    let scale: Vec<f64> = unit.iter().map(|u| 1.0 / (k * u).sqrt()).collect();
+    let symbolic = pattern.symbolic.as_ref();
+    let mut scaled = values.to_vec();
+    for (col, &s_col) in scale.iter().enumerate() {
+        let range = symbolic.col_ptr()[col]..symbolic.col_ptr()[col + 1];
+        for (v, &row) in scaled[range]
+            .iter_mut()
+            .zip(symbolic.row_idx_of_col_raw(col))
+        {
+            *v *= scale[row] * s_col;
+        }
+    }
+    scaled
 }
 
 /// Friends lists around the given positions that also hold every contact of `contacts`:
