@@ -69,6 +69,19 @@ pub struct Simulation {
     /// The LU solver of the consistent tangent when the scene's own solver is Cholesky:
     /// analysed on the current pattern when first needed.
     lu: Option<LinearSolver>,
+    /// The stability indicator's system with every wall free, while the pattern it was made
+    /// from is the current one.
+    freed: Option<FreedSystem>,
+}
+
+/// The unknowns, pattern and Cholesky analysis of the tangent with every displacement-
+/// controlled wall freed (see [`Simulation::negative_pivots`]), made from `source`.
+struct FreedSystem {
+    source: Arc<Pattern>,
+    source_dofs: DofMap,
+    dofs: DofMap,
+    pattern: Arc<Pattern>,
+    linear: LinearSolver,
 }
 
 /// Share of the half skin past which the friends lists are made anew: below the share a
@@ -170,6 +183,7 @@ impl Simulation {
             reopened: Vec::new(),
             consistent: false,
             lu: None,
+            freed: None,
             values: vec![0.0; pattern.nnz()],
             pattern,
             friends,
@@ -588,56 +602,94 @@ impl Simulation {
         if !self.config.stability_indicator || self.linear.kind() != LinearKind::Cholesky {
             return None;
         }
-        let mut freed = self.state.walls.clone();
-        for wall in &mut freed.walls {
-            wall.control = WallControl::Stress;
+        if self
+            .state
+            .walls
+            .walls
+            .iter()
+            .all(|w| w.control == WallControl::Stress)
+        {
+            let pattern = Arc::clone(&self.pattern);
+            let dofs = self.dofs.clone();
+            let mut linear =
+                std::mem::replace(&mut self.linear, LinearSolver::new(LinearKind::Cholesky));
+            let count = self.count_negative_pivots(step, u, &dofs, &pattern, &mut linear);
+            self.linear = linear;
+            return count;
         }
-        let dofs = DofMap::new(
-            self.state.grains.len(),
-            self.material.fixed_rotations,
-            &freed,
-        );
-        let same = dofs == self.dofs;
-        let pattern = if same {
-            Arc::clone(&self.pattern)
-        } else {
+        let current = self
+            .freed
+            .as_ref()
+            .is_some_and(|f| Arc::ptr_eq(&f.source, &self.pattern) && f.source_dofs == self.dofs);
+        if !current {
+            let mut walls = self.state.walls.clone();
+            for wall in &mut walls.walls {
+                wall.control = WallControl::Stress;
+            }
+            let dofs = DofMap::new(
+                self.state.grains.len(),
+                self.material.fixed_rotations,
+                &walls,
+            );
             let links: Vec<(usize, usize)> = self.chains.iter().flat_map(Chain::links).collect();
-            Arc::new(Pattern::build(&self.friends, &dofs, &freed, &links))
-        };
+            let pattern = Arc::new(Pattern::build(&self.friends, &dofs, &walls, &links));
+            let mut linear = LinearSolver::new(LinearKind::Cholesky);
+            linear.analyse(&pattern.symbolic, &mut self.stats).ok()?;
+            self.freed = Some(FreedSystem {
+                source: Arc::clone(&self.pattern),
+                source_dofs: self.dofs.clone(),
+                dofs,
+                pattern,
+                linear,
+            });
+        }
+        let mut freed = self.freed.take()?;
         // The walls' unknowns at where the step took them.
-        let mut u_freed = vec![0.0; dofs.len];
-        let grain_unknowns = dofs.grains * dofs.per_grain;
+        let mut u_freed = vec![0.0; freed.dofs.len];
+        let grain_unknowns = freed.dofs.grains * freed.dofs.per_grain;
         u_freed[..grain_unknowns].copy_from_slice(&u[..grain_unknowns]);
-        for (w, dof) in dofs.wall.iter().enumerate() {
-            let at = match self.dofs.wall[w] {
+        for (w, dof) in freed.dofs.wall.iter().enumerate() {
+            u_freed[dof.expect("every wall freed")] = match self.dofs.wall[w] {
                 Some(k) => u[k],
                 None => step.normal_move[w],
             };
-            u_freed[dof.expect("every wall freed")] = at;
         }
+        let count = self.count_negative_pivots(
+            step,
+            &u_freed,
+            &freed.dofs,
+            &freed.pattern,
+            &mut freed.linear,
+        );
+        self.freed = Some(freed);
+        count
+    }
+
+    /// Negative pivots of the scaled symmetric tangent at `u` in the unknowns `dofs` and
+    /// their `pattern`, analysed in `linear`.
+    fn count_negative_pivots(
+        &mut self,
+        step: &LoadStep,
+        u: &[f64],
+        dofs: &DofMap,
+        pattern: &Pattern,
+        linear: &mut LinearSolver,
+    ) -> Option<usize> {
         let mut values = vec![0.0; pattern.nnz()];
         let mut residual = vec![0.0; dofs.len];
         let mut eq = self.equations(step);
-        eq.dofs = &dofs;
-        eq.pattern = &pattern;
+        eq.dofs = dofs;
+        eq.pattern = pattern;
         eq.slip_tangent = SlipTangent::ElastoPlastic;
         eq.symmetric = true;
-        let evaluated = eq.evaluate(&u_freed, &mut residual, Some(&mut values));
+        let evaluated = eq.evaluate(u, &mut residual, Some(&mut values));
         let unit: Vec<f64> = (0..dofs.len).map(|dof| eq.unit_stiffness(dof)).collect();
         let timers = eq.timers;
         self.stats.timers.return_map += timers.return_map;
         self.stats.timers.assembly += timers.assembly;
         evaluated.ok()?;
-        let scaled = scaled_tangent(&pattern, &values, &unit);
+        let scaled = scaled_tangent(pattern, &values, &unit);
         let matrix = SparseColMatRef::new(pattern.symbolic.as_ref(), &scaled);
-        let mut fresh;
-        let linear = if same {
-            &mut self.linear
-        } else {
-            fresh = LinearSolver::new(LinearKind::Cholesky);
-            fresh.analyse(&pattern.symbolic, &mut self.stats).ok()?;
-            &mut fresh
-        };
         linear
             .negative_pivots(matrix, PIVOT_THRESHOLD, &mut self.stats)
             .ok()
