@@ -69,8 +69,8 @@ pub struct Simulation {
     /// The LU solver of the consistent tangent when the scene's own solver is Cholesky:
     /// analysed on the current pattern when first needed.
     lu: Option<LinearSolver>,
-    /// The stability indicator's system with every wall free, while the pattern it was made
-    /// from is the current one.
+    /// The stability indicator's system with every wall free, kept while the pattern it was
+    /// made from is the current one and it couples the membranes' chains.
     freed: Option<FreedSystem>,
 }
 
@@ -617,10 +617,11 @@ impl Simulation {
             self.linear = linear;
             return count;
         }
-        let current = self
-            .freed
-            .as_ref()
-            .is_some_and(|f| Arc::ptr_eq(&f.source, &self.pattern) && f.source_dofs == self.dofs);
+        let current = self.freed.as_ref().is_some_and(|f| {
+            Arc::ptr_eq(&f.source, &self.pattern)
+                && f.source_dofs == self.dofs
+                && f.pattern.couples(&f.dofs, &self.chains)
+        });
         if !current {
             let mut walls = self.state.walls.clone();
             for wall in &mut walls.walls {
