@@ -497,7 +497,8 @@ fn log_line(sim: &Simulation, r: &IncrementReport) -> String {
     let tail = &sim.last_residuals[sim.last_residuals.len().saturating_sub(5)..];
     let residuals: Vec<String> = tail.iter().map(|v| format!("{v:.1e}")).collect();
     format!(
-        "inc {:>5} stage {}: {} it, {} pass, {} cuts, {} settled, residuals [{}]; contacts {} \
+        "inc {:>5} stage {}: {} it, {} pass, {} cuts, {} settled, residuals [{}], {} negative \
+         pivots; contacts {} \
          (+{} -{}), broken {}; walls [{}] Pa; macro xx {:.4e} yy {:.4e} xy {:.2e} Pa",
         r.increment,
         r.stage,
@@ -506,6 +507,8 @@ fn log_line(sim: &Simulation, r: &IncrementReport) -> String {
         r.cuts,
         r.settled,
         residuals.join(" "),
+        r.negative_pivots
+            .map_or_else(|| "uncounted".to_string(), |n| n.to_string()),
         m.grain_contacts + m.wall_contacts,
         r.contacts_made,
         r.contacts_lost,

@@ -55,6 +55,11 @@ pub struct IncrementReport {
     pub bonds_broken: usize,
     /// Times a step of it was settled by explicit dynamics (no equilibrium nearby).
     pub settled: usize,
+    /// The stability indicator: negative pivots of an `L D L^T` of the symmetric tangent at
+    /// the converged state, i.e. its negative eigenvalues (`None` when not counted). Zero in
+    /// a stable equilibrium; positive where a mode of the sample softens (the onset of
+    /// failure).
+    pub negative_pivots: Option<usize>,
 }
 
 impl State {

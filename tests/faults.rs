@@ -50,6 +50,12 @@ fn assert_whole(path: &Path) -> Vec<usize> {
         .map(|&k| k as usize)
         .collect();
     assert_eq!(rows, increments, "one history row per complete increment");
+    // The stability indicator, counted for every increment solved (-1 for the start).
+    let pivots = history.int("negative_pivots");
+    assert_eq!(pivots.len(), rows.len());
+    for (&k, &n) in rows.iter().zip(pivots) {
+        assert!(if k == 0 { n == -1 } else { n >= 0 }, "increment {k}: {n}");
+    }
     increments
 }
 

@@ -214,6 +214,7 @@ fn report(s: &State) -> IncrementReport {
         contacts_lost: 0,
         bonds_broken: usize::from(s.increment == 1),
         settled: 0,
+        negative_pivots: Some(2),
     }
 }
 

@@ -340,6 +340,8 @@ impl ResultFile {
         let g = inc.create_group(&name)?;
         write_group_state(&g, state, report)?;
         append_history(&history, rows, self.widths(), state, report)?;
+        let pivots = report.negative_pivots.map_or(-1, |n| n as i64);
+        append_scalar(&history, NEGATIVE_PIVOTS, rows, pivots)?;
         write_summary_group(file, stats)?;
         // Last: only now is the increment whole.
         set_attr(&g, "complete", &1u8)?;
@@ -524,13 +526,23 @@ pub fn read_history(path: impl AsRef<Path>) -> Result<History, Error> {
             .filter(|&r| complete.binary_search(&increment[r]).is_ok())
             .collect();
         let pick = |v: Vec<f64>| keep.iter().map(|&r| v[r]).collect::<Vec<_>>();
-        let ints = HISTORY_INT
+        let mut ints = HISTORY_INT
             .iter()
             .map(|&name| {
                 let v = read_vec::<i64>(&h, name, None)?;
                 Ok((name, keep.iter().map(|&r| v[r]).collect()))
             })
             .collect::<R<Vec<_>>>()?;
+        // Files written before the stability indicator have none.
+        if h.link_exists(NEGATIVE_PIVOTS) {
+            let v = read_vec::<i64>(&h, NEGATIVE_PIVOTS, None)?;
+            if v.len() < rows {
+                return Err(Fail(format!(
+                    "dataset `/history/{NEGATIVE_PIVOTS}` is short"
+                )));
+            }
+            ints.push((NEGATIVE_PIVOTS, keep.iter().map(|&r| v[r]).collect()));
+        }
         // Columns added since a file was written read as unknown.
         let floats = HISTORY_FLOAT
             .iter()
@@ -1360,6 +1372,10 @@ const HISTORY_WALL: [&str; 6] = [
 /// Each membrane's pressure: a row of `M` values per increment, like the walls' columns.
 const MEMBRANE_PRESSURE: &str = "membrane_pressure";
 
+/// The stability indicator of each increment (negative pivots of the tangent; -1: not
+/// counted). Kept apart from the other integer columns, so files written before it read.
+const NEGATIVE_PIVOTS: &str = "negative_pivots";
+
 /// Each region's stress (eq. A.40), a row of `R` values per component and increment.
 const REGION_STRESS: [&str; 4] = [
     "region_stress_xx",
@@ -1423,6 +1439,15 @@ fn create_history(h: &Group, walls: usize, membranes: usize, regions: usize) -> 
     for (name, width) in widths.tables() {
         create_table(h, name, width)?;
     }
+    create_negative_pivots(h)
+}
+
+fn create_negative_pivots(h: &Group) -> R<()> {
+    h.new_dataset_builder()
+        .empty::<i64>()
+        .shape(0..)
+        .chunk(HISTORY_CHUNK)
+        .create(NEGATIVE_PIVOTS)?;
     Ok(())
 }
 
@@ -1610,6 +1635,16 @@ fn truncate_history(h: &Group, rows: usize, widths: Widths) -> R<()> {
         }
         dataset(h, name)?.resize([rows, width])?;
     }
+    // A file from before the stability indicator: not counted so far.
+    if !h.link_exists(NEGATIVE_PIVOTS) {
+        create_negative_pivots(h)?;
+        let ds = dataset(h, NEGATIVE_PIVOTS)?;
+        ds.resize([rows])?;
+        if rows > 0 {
+            ds.write_slice(ArrayView1::from(&vec![-1i64; rows][..]), s![..])?;
+        }
+    }
+    dataset(h, NEGATIVE_PIVOTS)?.resize([rows])?;
     Ok(())
 }
 

@@ -85,6 +85,11 @@ pub struct SolverConfig {
     /// Relative residual at which settling hands over to Newton. Default 1e-3.
     #[serde(default = "default_settle_tolerance")]
     pub settle_tolerance: f64,
+    /// Count the negative pivots of an `L D L^T` of the symmetric tangent at each converged
+    /// increment (the stability indicator): one more numeric factorisation per increment, in
+    /// the symbolic analysis the solve already has. Default on.
+    #[serde(default = "yes")]
+    pub stability_indicator: bool,
 }
 
 fn default_strategy() -> Strategy {

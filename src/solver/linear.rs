@@ -7,13 +7,19 @@
 //! Contract: [`LinearSolver::analyse`] is called whenever the pattern changes (friends lists
 //! rebuilt); [`LinearSolver::factorize`] whenever values change; [`LinearSolver::solve_in_place`]
 //! uses the last successful factorisation.
+//!
+//! [`LinearSolver::negative_pivots`] counts the negative pivots of an `L D L^T` of a symmetric
+//! matrix in the Cholesky pattern, into storage of its own, so the `L L^T` it solves with
+//! stays valid: by Sylvester's law of inertia, the number of negative eigenvalues.
 
 use super::config::LinearKind;
 use super::stats::{secs, SolverStats};
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
+use faer::linalg::cholesky::ldlt::factor::LdltRegularization;
 use faer::linalg::cholesky::llt::factor::LltRegularization;
 use faer::sparse::linalg::cholesky::{
-    factorize_symbolic_cholesky, LltRef, SymbolicCholesky, SymmetricOrdering,
+    factorize_symbolic_cholesky, simplicial::SimplicialLdltRef, supernodal::SupernodalLdltRef,
+    LltRef, SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering,
 };
 use faer::sparse::linalg::lu::{factorize_symbolic_lu, LuRef, NumericLu, SymbolicLu};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
@@ -26,7 +32,9 @@ pub struct NotFactorizable(pub String);
 
 enum Symbolic {
     None,
-    Cholesky(SymbolicCholesky<usize>, Vec<f64>),
+    /// The symbolic factorisation, the values of `L L^T`, and those of the `L D L^T` of the
+    /// stability indicator (allocated when first needed).
+    Cholesky(SymbolicCholesky<usize>, Vec<f64>, Vec<f64>),
     Lu(SymbolicLu<usize>, Box<NumericLu<usize, f64>>),
 }
 
@@ -77,10 +85,11 @@ impl LinearSolver {
                 .map_err(fail)?;
                 self.scratch = MemBuffer::new(StackReq::any_of(&[
                     s.factorize_numeric_llt_scratch::<f64>(self.par, Default::default()),
+                    s.factorize_numeric_ldlt_scratch::<f64>(self.par, Default::default()),
                     s.solve_in_place_scratch::<f64>(1, self.par),
                 ]));
                 let values = vec![0.0; s.len_val()];
-                Symbolic::Cholesky(s, values)
+                Symbolic::Cholesky(s, values, Vec::new())
             }
             LinearKind::Lu => {
                 let s =
@@ -109,7 +118,7 @@ impl LinearSolver {
         let stack = MemStack::new(&mut self.scratch);
         let result = match &mut self.symbolic {
             Symbolic::None => return Err(NotFactorizable("no symbolic factorisation".into())),
-            Symbolic::Cholesky(s, values) => s
+            Symbolic::Cholesky(s, values, _) => s
                 .factorize_numeric_llt(
                     values,
                     matrix,
@@ -149,7 +158,7 @@ impl LinearSolver {
         let x = MatMut::from_column_major_slice_mut(rhs, n, 1);
         let stack = MemStack::new(&mut self.scratch);
         match &self.symbolic {
-            Symbolic::Cholesky(s, values) => {
+            Symbolic::Cholesky(s, values, _) => {
                 LltRef::new(s, values).solve_in_place_with_conj(Conj::No, x, self.par, stack)
             }
             Symbolic::Lu(s, numeric) => LuRef::new_unchecked(s, numeric).solve_in_place_with_conj(
@@ -162,5 +171,120 @@ impl LinearSolver {
         }
         stats.counters.solves += 1;
         stats.timers.solve += secs(start);
+    }
+
+    /// Pivots of an `L D L^T` of `matrix` (symmetric, in the analysed pattern, scaled so that
+    /// its pivots are of order one) below `-threshold`. Pivots within `threshold` of zero
+    /// (rattlers, free rotations: a singular direction) are taken as zero and not counted.
+    /// Only for the Cholesky kind; the `L L^T` kept for solves is left as it was.
+    pub fn negative_pivots(
+        &mut self,
+        matrix: SparseColMatRef<'_, usize, f64>,
+        threshold: f64,
+        stats: &mut SolverStats,
+    ) -> Result<usize, NotFactorizable> {
+        let start = Instant::now();
+        let Symbolic::Cholesky(s, _, values) = &mut self.symbolic else {
+            return Err(NotFactorizable("no symmetric analysis".into()));
+        };
+        values.resize(s.len_val(), 0.0);
+        // Pivots within the threshold are set to +-threshold, so that none is zero.
+        let regularization = LdltRegularization {
+            dynamic_regularization_signs: None,
+            dynamic_regularization_delta: threshold,
+            dynamic_regularization_epsilon: threshold,
+        };
+        let result = s.factorize_numeric_ldlt(
+            values,
+            matrix,
+            Side::Lower,
+            regularization,
+            self.par,
+            MemStack::new(&mut self.scratch),
+            Default::default(),
+        );
+        stats.counters.numeric_factorisations += 1;
+        stats.timers.factorisation += secs(start);
+        result.map_err(|e| NotFactorizable(format!("{e:?}")))?;
+        let negative = |d: &f64| *d < -threshold;
+        Ok(match s.raw() {
+            // Each column of a simplicial factor starts with its pivot.
+            SymbolicCholeskyRaw::Simplicial(sym) => {
+                let factor = SimplicialLdltRef::new(sym, values);
+                let col_ptr = sym.col_ptr();
+                (0..sym.nrows())
+                    .filter(|&j| negative(&factor.values()[col_ptr[j]]))
+                    .count()
+            }
+            // A supernode's diagonal block holds its pivots on its diagonal.
+            SymbolicCholeskyRaw::Supernodal(sym) => {
+                let factor = SupernodalLdltRef::new(sym, values);
+                (0..sym.n_supernodes())
+                    .map(|k| {
+                        let block = factor.supernode(k).val();
+                        (0..block.ncols())
+                            .filter(|&j| negative(&block[(j, j)]))
+                            .count()
+                    })
+                    .sum()
+            }
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use faer::sparse::{SparseColMat, Triplet};
+
+    /// The Dirichlet Laplacian of an `n` x `n` grid shifted by `-shift` (full storage), and
+    /// how many of its eigenvalues, `4 - 2 cos(i pi / (n + 1)) - 2 cos(j pi / (n + 1))`, are
+    /// below the shift.
+    fn shifted_laplacian(n: usize, shift: f64) -> (SparseColMat<usize, f64>, usize) {
+        let index = |i: usize, j: usize| i * n + j;
+        let mut entries = Vec::new();
+        for i in 0..n {
+            for j in 0..n {
+                entries.push(Triplet::new(index(i, j), index(i, j), 4.0 - shift));
+                if i + 1 < n {
+                    entries.push(Triplet::new(index(i, j), index(i + 1, j), -1.0));
+                    entries.push(Triplet::new(index(i + 1, j), index(i, j), -1.0));
+                }
+                if j + 1 < n {
+                    entries.push(Triplet::new(index(i, j), index(i, j + 1), -1.0));
+                    entries.push(Triplet::new(index(i, j + 1), index(i, j), -1.0));
+                }
+            }
+        }
+        let matrix = SparseColMat::try_new_from_triplets(n * n, n * n, &entries).unwrap();
+        let mode = |k: usize| 2.0 - 2.0 * (k as f64 * std::f64::consts::PI / (n + 1) as f64).cos();
+        let below = (1..=n)
+            .flat_map(|i| (1..=n).map(move |j| mode(i) + mode(j)))
+            .filter(|&lambda| lambda < shift)
+            .count();
+        (matrix, below)
+    }
+
+    #[test]
+    fn negative_pivots_count_the_negative_eigenvalues() {
+        let mut stats = SolverStats::default();
+        // Small grids factor simplicially, the large one in supernodes.
+        let mut supernodal = false;
+        for (n, shift) in [(6, 0.0), (6, 1.3), (6, 5.1), (250, 0.1), (250, 4.4)] {
+            let (matrix, below) = shifted_laplacian(n, shift);
+            let mut solver = LinearSolver::new(LinearKind::Cholesky);
+            solver
+                .analyse(&matrix.symbolic().to_owned().unwrap(), &mut stats)
+                .unwrap();
+            let counted = solver
+                .negative_pivots(matrix.as_ref(), 1e-10, &mut stats)
+                .unwrap();
+            assert_eq!(counted, below, "grid {n} x {n} shifted by {shift}");
+            assert!(below > 0 || shift == 0.0);
+            if let Symbolic::Cholesky(s, ..) = &solver.symbolic {
+                supernodal |= matches!(s.raw(), SymbolicCholeskyRaw::Supernodal(_));
+            }
+        }
+        assert!(supernodal, "the supernodal path was taken");
     }
 }
