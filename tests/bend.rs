@@ -19,29 +19,12 @@ const COLUMNS: usize = 40;
 /// Distance of each support from the beam's end, in radii.
 const OVERHANG: f64 = 8.0;
 
-/// A hexagonal sandstone crystal (table 8) on two support plugs brought up to its bottom row,
-/// the left one glued (a pin), the right one frictionless (a roller), and a loading plug at
-/// mid-span brought down to its top row and pushed down by `push` in `increments` steps.
-fn crystal_beam(push: f64, increments: usize) -> String {
-    let length = 2.0 * R * COLUMNS as f64;
-    let height = 2.0 * R + 3f64.sqrt() * R * (ROWS - 1) as f64;
-    let (left, right, middle) = (OVERHANG * R, length - OVERHANG * R, 0.5 * length);
-    let plug = 2.0 * R;
+/// The plugs of a three-point bend test: supports at `left` and `right` below the beam (`y =
+/// below`), the left one glued (a pin), the right one frictionless (a roller), both brought
+/// up to it, and the loading plug at `middle` above it (`y = above`), brought down to it.
+fn plugs(left: f64, right: f64, middle: f64, below: f64, above: f64, plug: f64) -> String {
     format!(
-        r#"name = "crystal-bend"
-[material]
-law = "linear"
-normal_stiffness = 1e6
-poisson = 0.16
-friction = 0.6
-cohesion = 1e8
-bonded = true
-[grains.crystal]
-rows = {ROWS}
-columns = {COLUMNS}
-radius = {R:e}
-short_first = false
-[[circles]]
+        r#"[[circles]]
 name = "left"
 center = [{left:e}, {below:e}]
 radius = {plug:e}
@@ -63,13 +46,38 @@ radius = {plug:e}
 grains = "outside"
 moves = [0.0, -1.0]
 touch = true
+"#
+    )
+}
+
+/// A hexagonal sandstone crystal (table 8) on the [`plugs`] of a bend test, the loading plug
+/// pushed down by `push` in `increments` steps.
+fn crystal_beam(push: f64, increments: usize) -> String {
+    let length = 2.0 * R * COLUMNS as f64;
+    let height = 2.0 * R + 3f64.sqrt() * R * (ROWS - 1) as f64;
+    let (left, right, middle) = (OVERHANG * R, length - OVERHANG * R, 0.5 * length);
+    let plug = 2.0 * R;
+    format!(
+        r#"name = "crystal-bend"
+[material]
+law = "linear"
+normal_stiffness = 1e6
+poisson = 0.16
+friction = 0.6
+cohesion = 1e8
+bonded = true
+[grains.crystal]
+rows = {ROWS}
+columns = {COLUMNS}
+radius = {R:e}
+short_first = false
+{plugs}
 [[stages]]
 name = "bend"
 increments = {increments}
 displacement = {{ load = {push:e} }}
 "#,
-        below = -5.0 * R,
-        above = height + 5.0 * R,
+        plugs = plugs(left, right, middle, -5.0 * R, height + 5.0 * R, plug),
     )
 }
 
@@ -179,28 +187,7 @@ bonded = true
 [grains]
 sample = "beam.h5"
 walls = {{}}
-[[circles]]
-name = "left"
-center = [{left:e}, {below:e}]
-radius = {plug:e}
-grains = "outside"
-moves = [0.0, 1.0]
-touch = true
-friction = "glued"
-[[circles]]
-name = "right"
-center = [{right:e}, {below:e}]
-radius = {plug:e}
-grains = "outside"
-moves = [0.0, 1.0]
-touch = true
-[[circles]]
-name = "load"
-center = [{middle:e}, {above:e}]
-radius = {plug:e}
-grains = "outside"
-moves = [0.0, -1.0]
-touch = true
+{plugs}
 [[stages]]
 name = "bend"
 increments = 200
@@ -208,11 +195,14 @@ displacement = {{ load = 1e-4 }}
 until_failure = true
 failure_drop = 0.5
 "#,
-        left = x0 + overhang,
-        right = x1 - overhang,
-        middle = 0.5 * (x0 + x1),
-        below = y0 - 2.0 * plug,
-        above = y1 + 2.0 * plug,
+        plugs = plugs(
+            x0 + overhang,
+            x1 - overhang,
+            0.5 * (x0 + x1),
+            y0 - 2.0 * plug,
+            y1 + 2.0 * plug,
+            plug
+        ),
     )
 }
 
