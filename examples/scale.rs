@@ -1,0 +1,102 @@
+//! How time and memory grow with the number of grains: one sandstone crystal per size
+//! (`samples::crystal_biaxial`, table 8, between four walls), set up, then its first load
+//! increment and a short run of three more, each size in a process of its own so that its peak
+//! memory is its own. Prints a markdown table.
+//!
+//!     cargo run --release --example scale -- 1000 10000 100000 1000000
+//!
+//! Crystals are built in milliseconds; a prepared sample of a million grains is not. A
+//! crystal has three contacts per grain against the four of a dense prepared sample.
+
+use grainstat::samples;
+use grainstat::scene::build_grains;
+use grainstat::simulation::Simulation;
+use grainstat::solver::SolverConfig;
+use std::path::Path;
+use std::process::Command;
+use std::time::Instant;
+
+/// Increments of the short run after the first.
+const SHORT_RUN: usize = 3;
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    if args.first().map(String::as_str) == Some("--one") {
+        let grains = args.get(1).and_then(|n| n.parse().ok()).unwrap_or(1000);
+        println!("{}", measure(grains));
+        return;
+    }
+    let sizes: Vec<usize> = if args.is_empty() {
+        vec![1_000, 10_000, 100_000]
+    } else {
+        match args.iter().map(|a| a.parse()).collect() {
+            Ok(sizes) => sizes,
+            Err(_) => {
+                eprintln!("usage: scale [GRAINS ...]  (whole numbers)");
+                std::process::exit(2);
+            }
+        }
+    };
+    println!(
+        "| grains | unknowns | contacts | set-up (s) | first increment (s) | Newton iterations | \
+         next {SHORT_RUN} increments (s) | peak memory (MB) |"
+    );
+    println!("|---|---|---|---|---|---|---|---|");
+    let me = std::env::current_exe().expect("the example's own path");
+    for grains in sizes {
+        let out = Command::new(&me)
+            .args(["--one", &grains.to_string()])
+            .output()
+            .expect("the example runs itself");
+        if !out.status.success() {
+            eprintln!(
+                "{grains} grains failed: {}",
+                String::from_utf8_lossy(&out.stderr)
+            );
+            std::process::exit(3);
+        }
+        print!("{}", String::from_utf8_lossy(&out.stdout));
+    }
+}
+
+/// One table row for a crystal of about `grains` grains (rows = 1.6 columns, so that the
+/// crystal is about as high as wide).
+fn measure(grains: usize) -> String {
+    let columns = ((grains as f64 / 1.6).sqrt().round() as usize).max(2);
+    let rows = (grains / columns).max(3) | 1;
+    let scene = samples::crystal_biaxial(rows, columns, 1e6, 3e6);
+    let start = Instant::now();
+    let built = build_grains(&scene.grains, Path::new("."), "scale").expect("crystal");
+    let mut sim = Simulation::new(&scene, built, SolverConfig::default(), "scale").expect("set-up");
+    let setup = start.elapsed().as_secs_f64();
+
+    let start = Instant::now();
+    let first = sim.run_increment().expect("first increment");
+    let first_time = start.elapsed().as_secs_f64();
+    let start = Instant::now();
+    for _ in 0..SHORT_RUN {
+        sim.run_increment().expect("short run");
+    }
+    let short = start.elapsed().as_secs_f64();
+    format!(
+        "| {} | {} | {} | {setup:.2} | {first_time:.2} | {} | {short:.2} | {:.0} |",
+        sim.state.grains.len(),
+        sim.dofs().len,
+        sim.state.contacts.contacts.len(),
+        first.newton_iterations,
+        peak_memory_mb()
+    )
+}
+
+/// The process's peak resident memory (`VmHWM`), in MB; NaN where /proc does not say.
+fn peak_memory_mb() -> f64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("VmHWM:"))
+                .and_then(|l| l.split_whitespace().nth(1))
+                .and_then(|kb| kb.parse::<f64>().ok())
+        })
+        .map_or(f64::NAN, |kb| kb / 1024.0)
+}
