@@ -86,8 +86,9 @@ pub struct SolverConfig {
     #[serde(default = "default_settle_tolerance")]
     pub settle_tolerance: f64,
     /// Count the negative pivots of an `L D L^T` of the symmetric tangent at each converged
-    /// increment (the stability indicator): one more numeric factorisation per increment, in
-    /// the symbolic analysis the solve already has. Default on.
+    /// increment (the stability indicator): one more numeric factorisation per increment, and
+    /// where walls are moved by displacement (freed for the count) one more symbolic analysis
+    /// whenever the pattern changes. Default on.
     #[serde(default = "yes")]
     pub stability_indicator: bool,
 }
