@@ -61,8 +61,8 @@ enum Command {
     },
     /// Prepare a sample as the scene's `[sample]` section says: radii from the size
     /// distribution, grains sprinkled into the region and grown to the target isotropic
-    /// stress with the friction lowered to f_gg', brought to exact equilibrium, friction raised
-    /// to the material's, bonds made for a cemented material.
+    /// stress with the friction lowered to f_gg', friction raised to the material's, brought to
+    /// exact equilibrium, bonds made for a cemented material.
     #[command(
         after_help = "Examples:\n  grainstat generate examples/sample-sand.toml -o samples/sand.h5\n  \
         grainstat generate examples/sample-sand.toml -o samples/sand.h5 --csv samples/sand.csv"

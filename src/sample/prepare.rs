@@ -1,9 +1,8 @@
 //! Sample preparation as in the thesis (2.2, 3.2.1): radii drawn from a size distribution,
 //! grains sprinkled into the region at a fraction of their size and grown until they fill it
-//! at the target isotropic stress with the grain friction lowered to `f_gg'`, then brought to
-//! exact equilibrium by the global solver; the friction is raised to the test value `f_gg''`
-//! (which cannot break the equilibrium: every shear force is already within the lower limit)
-//! and, for a cemented material, every grain-grain contact is bonded.
+//! at the target isotropic stress with the grain friction lowered to `f_gg'`; the friction is
+//! then raised to the test value `f_gg''`, the global solver brings the packing to exact
+//! equilibrium with it, and, for a cemented material, every grain-grain contact is bonded.
 
 use super::grow::{grow, GrowReport, GrowSettings};
 use super::{sprinkle, ContactHistory, Region, SampleFile, SizeDistribution};
@@ -198,14 +197,19 @@ pub fn prepare(
         progress,
     );
 
-    // Exact equilibrium at the target stress, still with f_gg'.
-    let soft = MaterialModel {
-        friction: spec.friction,
+    // Exact equilibrium at the target stress with the friction raised to f_gg''. Growth
+    // hands on a packing near rest, not at it. Without friction such a packing is close to
+    // isostatic: held to exact equilibrium with f_gg' = 0, a grain near a mechanism pulls on
+    // a neighbour, and once that contact is let go it collapses into a new arrangement (the
+    // 10,000-grain annulus: 39 contacts in tension, then no equilibrium). With f_gg'' the
+    // shear springs hold it where growth left it, as they hold it in the tests that start
+    // from it; the density is the one f_gg' gave.
+    let uncemented = MaterialModel {
         bonded: false,
         ..material.clone()
     };
     let skin = config.skin * grains.mean_radius();
-    let mut contacts = initial_contacts(&soft, &grains, &walls, skin);
+    let mut contacts = initial_contacts(&uncemented, &grains, &walls, skin);
     for c in &mut contacts.contacts {
         if let Ok(k) = shear_forces.binary_search_by(|(p, _)| p.cmp(&c.pair)) {
             c.shear_force0 = shear_forces[k].1;
@@ -240,10 +244,10 @@ pub fn prepare(
         max_topology_passes: config.max_topology_passes.max(spec.grains.div_ceil(50)),
         ..config.clone()
     };
-    let mut sim = Simulation::from_state("prepare".into(), exact, soft, depth, vec![hold], state)?;
+    let mut sim = Simulation::from_state("prepare".into(), exact, uncemented, depth, vec![hold], state)?;
     let report = sim.run_increment()?;
 
-    // Friction up to f_gg''; cement for a bonded material. The prepared state is the start of
+    // Cement for a bonded material. The prepared state is the start of
     // whatever uses it: no increments, no stages done.
     let mut state = sim.state;
     (state.increment, state.stage, state.stage_increment) = (0, 0, 0);
