@@ -27,11 +27,13 @@ fn crystal_run(dir: &Path) -> PathBuf {
     result
 }
 
-const PICTURES: [&str; 4] = [
+const PICTURES: [&str; 6] = [
     "stress-strain",
     "volumetric-strain",
     "contacts-per-grain",
     "broken-bonds",
+    "mean-rotation",
+    "region-stresses",
 ];
 
 const SAMPLE_PICTURES: [&str; 5] = [

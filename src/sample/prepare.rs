@@ -244,7 +244,14 @@ pub fn prepare(
         max_topology_passes: config.max_topology_passes.max(spec.grains.div_ceil(50)),
         ..config.clone()
     };
-    let mut sim = Simulation::from_state("prepare".into(), exact, uncemented, depth, vec![hold], state)?;
+    let mut sim = Simulation::from_state(
+        "prepare".into(),
+        exact,
+        uncemented,
+        depth,
+        vec![hold],
+        state,
+    )?;
     let report = sim.run_increment()?;
 
     // Cement for a bonded material. The prepared state is the start of

@@ -15,7 +15,7 @@ use plotters::style::RGBColor;
 
 use super::curves::{write_csv, Curve, Curves, LoadAxis};
 use super::h5::input_error;
-use super::hdf5_file::{group_name, read_history, read_increments, read_state};
+use super::hdf5_file::{group_name, read_history, read_increments, read_state, History};
 use super::xdmf::write_xdmf;
 use crate::estimate::{cylinder_failure, estimate_stages};
 use crate::scene::parse_scene;
@@ -112,7 +112,8 @@ pub fn plot(
         }
     }
 
-    for (name, chart) in curve_charts(&header.scene_name, &curves) {
+    let region_names: Vec<&str> = header.regions.iter().map(|r| r.name.as_str()).collect();
+    for (name, chart) in curve_charts(&header.scene_name, &curves, &history, &region_names) {
         written.extend(save(&chart, &dir, name)?);
     }
 
@@ -151,8 +152,14 @@ pub fn plot(
     Ok(written)
 }
 
-/// Stress-strain, volumetric strain, contacts per grain and bonds broken against the load.
-fn curve_charts(scene: &str, curves: &Curves) -> Vec<(&'static str, LineChart)> {
+/// Stress-strain, volumetric strain, contacts per grain and bonds broken against the load;
+/// the mean grain rotation and each region's stresses when the history has them.
+fn curve_charts(
+    scene: &str,
+    curves: &Curves,
+    history: &History,
+    regions: &[&str],
+) -> Vec<(&'static str, LineChart)> {
     let (x, x_label): (Vec<f64>, String) = match curves.axis {
         LoadAxis::Strain { .. } => (
             curves.load.values.iter().map(|v| 100.0 * v).collect(),
@@ -238,6 +245,70 @@ fn curve_charts(scene: &str, curves: &Curves) -> Vec<(&'static str, LineChart)> 
             single("bonds broken", &curves.broken_bonds, 1.0),
         ),
     ));
+    let (mean, absolute) = (
+        history.float("mean_rotation"),
+        history.float("mean_absolute_rotation"),
+    );
+    if mean.len() == x.len() && absolute.len() == x.len() {
+        let series = [
+            ("mean rotation", mean),
+            ("mean absolute rotation", absolute),
+        ]
+        .into_iter()
+        .enumerate()
+        .map(|(k, (label, values))| Series {
+            label: label.into(),
+            points: points(values, 1.0),
+            colour: PALETTE[k],
+            dashed: false,
+        })
+        .collect();
+        charts.push((
+            "mean-rotation",
+            chart(
+                "grain rotation since the start",
+                "rotation [rad], anticlockwise positive".into(),
+                false,
+                series,
+            ),
+        ));
+    }
+    // Each region in a colour of its own: sigma_xx solid, sigma_yy dashed.
+    let components = [
+        ("xx", history.region("region_stress_xx")),
+        ("yy", history.region("region_stress_yy")),
+    ];
+    if !regions.is_empty() && components.iter().all(|(_, rows)| rows.len() == x.len()) {
+        let unit = si_unit(
+            max_abs(
+                components
+                    .iter()
+                    .flat_map(|(_, rows)| rows.iter().flatten()),
+            ),
+            "Pa",
+        );
+        let mut series = Vec::new();
+        for (k, name) in regions.iter().enumerate() {
+            for (c, (component, rows)) in components.iter().enumerate() {
+                let values: Vec<f64> = rows.iter().map(|row| row[k]).collect();
+                series.push(Series {
+                    label: format!("{name}: σ_{component}"),
+                    points: points(&values, unit.factor),
+                    colour: PALETTE[k % PALETTE.len()],
+                    dashed: c == 1,
+                });
+            }
+        }
+        charts.push((
+            "region-stresses",
+            chart(
+                "stresses in the regions, eq. A.40 (solid: σ_xx, dashed: σ_yy)",
+                format!("stress [{}], compression positive", unit.unit),
+                false,
+                series,
+            ),
+        ));
+    }
     charts
 }
 
