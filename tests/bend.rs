@@ -171,8 +171,9 @@ stress = 1e6
 "#;
 
 /// The bend test of `examples/bend-test.toml` on a beam spanning `x0..x1` above `y0` with
-/// its top at `y1`: supports `overhang` in from the ends, the load at mid-span.
-fn bend_scene(box_: [f64; 4], overhang: f64) -> String {
+/// its top at `y1`: supports `overhang` in from the ends, the load at mid-span, pushed down
+/// by [`PUSH`] in `increments` steps.
+fn bend_scene(box_: [f64; 4], overhang: f64, increments: usize) -> String {
     let [x0, y0, x1, y1] = box_;
     let plug = 5e-4;
     format!(
@@ -190,8 +191,8 @@ walls = {{}}
 {plugs}
 [[stages]]
 name = "bend"
-increments = 200
-displacement = {{ load = 1e-4 }}
+increments = {increments}
+displacement = {{ load = {PUSH:e} }}
 until_failure = true
 failure_drop = 0.5
 "#,
@@ -206,12 +207,15 @@ failure_drop = 0.5
     )
 }
 
-#[test]
-fn prepared_beam_breaks_first_at_the_bottom_near_mid_span_and_the_test_ends_there() {
-    let dir = tempfile::tempdir().unwrap();
-    let sample_scene = dir.path().join("sample.toml");
+/// Total push of the loading plug in the bend scenes (m).
+const PUSH: f64 = 1e-4;
+
+/// The 300-grain beam of [`SAMPLE`] prepared in `dir`, with its bounding box and the
+/// supports' distance from its ends.
+fn prepared_beam(dir: &Path) -> ([f64; 4], f64) {
+    let sample_scene = dir.join("sample.toml");
     std::fs::write(&sample_scene, SAMPLE).unwrap();
-    let sample = dir.path().join("beam.h5");
+    let sample = dir.join("beam.h5");
     let out = common::grainstat(&[
         "generate",
         sample_scene.to_str().unwrap(),
@@ -221,10 +225,20 @@ fn prepared_beam_breaks_first_at_the_bottom_near_mid_span_and_the_test_ends_ther
     assert!(out.status.success(), "{}", common::stderr(&out));
     let grains = grainstat::sample::read_sample(&sample).unwrap().grains;
     let [x0, y0, x1, y1] = grains.bounding_box();
-    let overhang = 0.08 * (x1 - x0);
-    let scene = dir.path().join("bend.toml");
-    std::fs::write(&scene, bend_scene([x0, y0, x1, y1], overhang)).unwrap();
-    let result = dir.path().join("bend.h5");
+    ([x0, y0, x1, y1], 0.08 * (x1 - x0))
+}
+
+/// Run the bend test on the beam prepared in `dir` in `increments` steps until it fails;
+/// returns the result file and what the run said.
+fn bend_to_failure(
+    dir: &Path,
+    box_: [f64; 4],
+    overhang: f64,
+    increments: usize,
+) -> (std::path::PathBuf, String) {
+    let scene = dir.join(format!("bend-{increments}.toml"));
+    std::fs::write(&scene, bend_scene(box_, overhang, increments)).unwrap();
+    let result = dir.join(format!("bend-{increments}.h5"));
     let out = common::grainstat(&[
         "run",
         scene.to_str().unwrap(),
@@ -239,6 +253,14 @@ fn prepared_beam_breaks_first_at_the_bottom_near_mid_span_and_the_test_ends_ther
         said.contains("the sample failed") && said.contains("fell to"),
         "{said}"
     );
+    (result, said)
+}
+
+#[test]
+fn prepared_beam_breaks_first_at_the_bottom_near_mid_span_and_the_test_ends_there() {
+    let dir = tempfile::tempdir().unwrap();
+    let ([x0, y0, x1, y1], overhang) = prepared_beam(dir.path());
+    let (result, said) = bend_to_failure(dir.path(), [x0, y0, x1, y1], overhang, 200);
 
     // The last state is on file, and it is the failure's.
     let written = grainstat::output::hdf5_file::read_increments(&result).unwrap();
@@ -271,5 +293,89 @@ fn prepared_beam_breaks_first_at_the_bottom_near_mid_span_and_the_test_ends_ther
             "near mid-span: {at:?}"
         );
         assert_eq!(bond.mode, grainstat::contact::BreakMode::Tension);
+    }
+}
+
+/// Bonds broken, each with the loading plug's push at the end of the increment it broke in (m).
+type Cracks = Vec<(grainstat::geometry::Pair, f64)>;
+
+/// The bonds broken by the end of a bend run, in the order they broke; and the peak force on
+/// the plug (N).
+fn crack_sequence(result: &Path, increments: usize) -> (Cracks, f64) {
+    let written = grainstat::output::hdf5_file::read_increments(result).unwrap();
+    let (_, state) =
+        grainstat::output::hdf5_file::read_state(result, *written.last().unwrap()).unwrap();
+    let step = PUSH / increments as f64;
+    let sequence = state
+        .contacts
+        .broken_bonds
+        .iter()
+        .map(|b| (b.pair, b.increment as f64 * step))
+        .collect();
+    let history = grainstat::output::hdf5_file::read_history(result).unwrap();
+    let load = 2; // the plugs in order: left, right, load
+    let peak = history
+        .wall("wall_normal_force")
+        .iter()
+        .map(|row| row[load])
+        .fold(0.0, f64::max);
+    (sequence, peak)
+}
+
+/// Brittle failure against the increment size (issue: hard cases): the beam pushed down in
+/// 100, 200 and 400 steps breaks the same bonds in the same order, each in the increment of
+/// the coarser run that holds the push at which the finer run broke it; and the peak load
+/// differs by what the coarser steps miss of it. The bonds that break together in the
+/// failing increment (the beam snaps) break together in every run.
+#[test]
+fn the_crack_sequence_does_not_depend_on_the_increment_size() {
+    let dir = tempfile::tempdir().unwrap();
+    let (box_, overhang) = prepared_beam(dir.path());
+    let runs: Vec<(usize, Cracks, f64)> = [100, 200, 400]
+        .into_iter()
+        .map(|n| {
+            let (result, _) = bend_to_failure(dir.path(), box_, overhang, n);
+            let (sequence, peak) = crack_sequence(&result, n);
+            (n, sequence, peak)
+        })
+        .collect();
+    for (n, sequence, peak) in &runs {
+        eprintln!(
+            "{n} increments: peak {peak:.4} N; bonds broken at push [um]: {:?}",
+            sequence
+                .iter()
+                .map(|(p, at)| format!("{:?}-{} {:.3}", p.a, p.b, at * 1e6))
+                .collect::<Vec<_>>()
+        );
+    }
+    for pair in runs.windows(2) {
+        let [(coarse_n, coarse, coarse_peak), (fine_n, fine, fine_peak)] = pair else {
+            unreachable!()
+        };
+        let coarse_step = PUSH / *coarse_n as f64;
+        // The same bonds, in the same order up to bonds breaking in one increment together.
+        let order = |s: &[(grainstat::geometry::Pair, f64)]| {
+            let mut s = s.to_vec();
+            s.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
+            s
+        };
+        let (coarse, fine) = (order(coarse), order(fine));
+        assert_eq!(
+            coarse.iter().map(|b| b.0).collect::<Vec<_>>(),
+            fine.iter().map(|b| b.0).collect::<Vec<_>>(),
+            "{coarse_n} and {fine_n} increments break different bonds"
+        );
+        assert!(coarse.len() >= 5, "the beam broke {} bonds", coarse.len());
+        for ((pair, at_coarse), (_, at_fine)) in coarse.iter().zip(&fine) {
+            let slack = 1e-9 * PUSH;
+            assert!(
+                *at_fine <= at_coarse + slack && *at_fine > at_coarse - coarse_step - slack,
+                "bond {pair:?}: broken at {at_fine:e} m in {fine_n} steps, at {at_coarse:e} m in {coarse_n}"
+            );
+        }
+        assert!(
+            (fine_peak - coarse_peak).abs() < 0.03 * fine_peak,
+            "peak {coarse_peak} N in {coarse_n} steps, {fine_peak} N in {fine_n}"
+        );
     }
 }
