@@ -53,6 +53,10 @@ pub struct IncrementReport {
     pub contacts_lost: usize,
     /// Bonds broken in this increment.
     pub bonds_broken: usize,
+    /// Contacts that opened in tension after one topology pass and were made again in a
+    /// later one: chatter, held off by letting such a contact push but not pull for the rest
+    /// of the increment.
+    pub contacts_remade: usize,
     /// Times a step of it was settled by explicit dynamics (no equilibrium nearby).
     pub settled: usize,
     /// The stability indicator: negative pivots of an `L D L^T` of the symmetric tangent at

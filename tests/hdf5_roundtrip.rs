@@ -212,6 +212,7 @@ fn report(s: &State) -> IncrementReport {
         cuts: 0,
         contacts_made: 1,
         contacts_lost: 0,
+        contacts_remade: 0,
         bonds_broken: usize::from(s.increment == 1),
         settled: 0,
         negative_pivots: Some(2),

@@ -65,6 +65,9 @@ pub struct Simulation {
     /// Pairs whose contact opened in this increment, sorted: made again, they push but do not
     /// pull (see [`IncrementEquations::reopened`]).
     reopened: Vec<Pair>,
+    /// Pairs of `reopened` that were made again in a later pass of the same increment
+    /// (chatter), sorted.
+    remade: Vec<Pair>,
     /// Whether the rest of this increment is solved with the consistent tangent (see
     /// [`Simulation::solve_step`]).
     consistent: bool,
@@ -112,6 +115,8 @@ struct TopologyChange {
     made: usize,
     lost: usize,
     broken: usize,
+    /// Contacts that opened in tension and were made again within the increment.
+    remade: usize,
     /// Membranes whose chain of grains changed.
     chains: usize,
 }
@@ -184,6 +189,7 @@ impl Simulation {
             anchors: anchors(&state.grains, &state.walls, &state.contacts.contacts),
             trust: None,
             reopened: Vec::new(),
+            remade: Vec::new(),
             consistent: false,
             lu: None,
             freed: None,
@@ -335,6 +341,7 @@ impl Simulation {
                 report.contacts_made += change.made;
                 report.contacts_lost += change.lost;
                 report.bonds_broken += change.broken;
+                report.contacts_remade += change.remade;
                 self.commit(step, &u);
                 Ok(())
             }
@@ -384,6 +391,7 @@ impl Simulation {
         settle: bool,
     ) -> Result<(Vec<f64>, TopologyChange), NumericError> {
         self.reopened.clear();
+        self.remade.clear();
         self.anchors = anchors(
             &self.state.grains,
             &self.state.walls,
@@ -456,7 +464,10 @@ impl Simulation {
                     .first()
                     .is_some_and(|&r0| outcome.residual < PROGRESS * r0);
             match (outcome.converged, change.any()) {
-                (true, false) => return Ok((u, total)),
+                (true, false) => {
+                    total.remade = self.remade.len();
+                    return Ok((u, total));
+                }
                 (false, false)
                     if !progressing && outcome.contacts_made == 0 && !outcome.at_reach =>
                 {
@@ -763,6 +774,8 @@ impl Simulation {
         eq.update_contacts()?;
         self.stats.timers.return_map += eq.timers.return_map;
         let start = Instant::now();
+        // Contacts Newton made again where its steps closed their gaps.
+        self.note_remade();
         let mut change = TopologyChange::default();
         let increment = self.state.increment + 1;
         // Contacts are lost below -chatter and made above +chatter: at rest, overlaps at the
@@ -847,6 +860,7 @@ impl Simulation {
         merged.extend(existing);
         merged.sort_by_key(|c| c.pair);
         self.state.contacts.contacts = merged;
+        self.note_remade();
         self.index_pairs()?;
         // Membranes: on the grains that are outermost now.
         change.chains = self.refresh_chains(true)?;
@@ -855,6 +869,17 @@ impl Simulation {
         self.stats.counters.bonds_broken += change.broken;
         self.stats.timers.topology += secs(start);
         Ok(change)
+    }
+
+    /// Note the contacts in the set that opened in tension earlier in the increment.
+    fn note_remade(&mut self) {
+        for c in &self.state.contacts.contacts {
+            if self.reopened.binary_search(&c.pair).is_ok() {
+                if let Err(at) = self.remade.binary_search(&c.pair) {
+                    self.remade.insert(at, c.pair);
+                }
+            }
+        }
     }
 
     /// Friends lists around the given positions, and the pattern and symbolic factorisation
