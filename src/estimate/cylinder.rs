@@ -12,6 +12,7 @@ use std::path::Path;
 
 use super::significant;
 use crate::geometry::{GrainSet, MembraneShape, Side};
+use crate::measure::ring_stresses;
 use crate::output::{read_increments, read_state};
 use crate::scene::{parse_scene, LawKind};
 use crate::Error;
@@ -49,6 +50,37 @@ pub struct CylinderPrediction {
     pub one_diameter_in: f64,
 }
 
+/// The elastic stage's stresses against Lamé's (eq. A.113): in rings three mean diameters
+/// wide, from two diameters off the borehole's surface to two off the outer edge, the radial
+/// and tangential stress from the contact forces (eq. A.41) at the last written increment
+/// with no bond broken, over the outer pressure then, beside eq. A.113 for that pressure
+/// outside and none in the borehole: `sigma_rr / p = B (1 - a^2/r^2)`,
+/// `sigma_tt / p = B (1 + a^2/r^2)`, `B = b^2 / (b^2 - a^2)`. The start, isotropic at the
+/// prepared stress, is Lamé's for that stress on both sides; the plug taken away and the
+/// load raised elastically, the sum is Lamé's with the borehole free.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LameProfile {
+    /// The increment measured.
+    pub increment: usize,
+    /// Outer pressure at it (Pa).
+    pub pressure: f64,
+    /// Per ring: mid radius (m), `sigma_rr / p` measured and by eq. A.113, `sigma_tt / p`
+    /// measured and by eq. A.113.
+    pub rings: Vec<[f64; 5]>,
+}
+
+impl LameProfile {
+    /// Largest relative difference from eq. A.113, radial and tangential.
+    pub fn largest_difference(&self) -> [f64; 2] {
+        self.rings.iter().fold([0.0f64; 2], |m, r| {
+            [
+                m[0].max((r[1] / r[2] - 1.0).abs()),
+                m[1].max((r[3] / r[4] - 1.0).abs()),
+            ]
+        })
+    }
+}
+
 /// The failure of a cylinder test, read from its result file.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CylinderFailure {
@@ -65,6 +97,9 @@ pub struct CylinderFailure {
     /// The predictions, where the scene's material has them (bonded linear contacts, depth
     /// equal to the mean diameter as appendix 7 takes it).
     pub prediction: Option<CylinderPrediction>,
+    /// The elastic stage against eq. A.113, when an increment after the first is written
+    /// before any bond broke.
+    pub lame: Option<LameProfile>,
 }
 
 impl CylinderFailure {
@@ -160,6 +195,30 @@ impl CylinderFailure {
                 significant(r.broken_in_region as f64 / self.bonds_in_region.max(1) as f64)
             );
         }
+        if let Some(lame) = &self.lame {
+            let [rr, tt] = lame.largest_difference();
+            let _ = write!(
+                text,
+                "\nThe elastic stage at increment {} (outer pressure {} Pa, no bond broken) \
+                 against eq. A.113 with the borehole free; largest differences: radial {:.1}%, \
+                 tangential {:.1}%.\n\n| r / a | sigma_rr / p | eq. A.113 | sigma_tt / p | eq. A.113 |\n|---|---|---|---|---|\n",
+                lame.increment,
+                significant(lame.pressure),
+                100.0 * rr,
+                100.0 * tt
+            );
+            for r in &lame.rings {
+                let _ = writeln!(
+                    text,
+                    "| {:.2} | {:.3} | {:.3} | {:.3} | {:.3} |",
+                    r[0] / self.radii[0],
+                    r[1],
+                    r[2],
+                    r[3],
+                    r[4]
+                );
+            }
+        }
         text
     }
 
@@ -195,6 +254,14 @@ pub fn predict_cylinder(a: f64, b: f64, d: f64, cohesion: f64, phi: f64) -> Cyli
         surface,
         one_diameter_in: surface * (1.0 - sin) / (1.0 - sin - 2.0 * d / a),
     }
+}
+
+/// Eq. A.113 for a cylinder of radii `a`, `b` under an outer pressure with the borehole
+/// free: `[sigma_rr, sigma_tt]` at radius `r` over the pressure.
+pub fn lame_free_borehole(a: f64, b: f64, r: f64) -> [f64; 2] {
+    let outer = b * b / (b * b - a * a);
+    let q = (a / r).powi(2);
+    [outer * (1.0 - q), outer * (1.0 + q)]
 }
 
 /// Distance from `center` of the contact point between grains `i` and `j`.
@@ -239,6 +306,12 @@ pub fn cylinder_failure(result: &Path) -> Result<Option<CylinderFailure>, Error>
         .clone()
         .filter(|c| matches!(c.pair.a, Side::Grain(i) if in_region(grains, i, c.pair.b)))
         .count();
+    let d = 2.0 * grains.mean_radius();
+    let edges: Vec<f64> = (0..)
+        .map(|k| a + 2.0 * d + 3.0 * d * k as f64)
+        .take_while(|&r| r <= b - 2.0 * d)
+        .collect();
+    let mut lame = None;
     let mut rows = Vec::with_capacity(increments.len());
     for &k in &increments {
         let (_, state) = read_state(result, k)?;
@@ -258,8 +331,23 @@ pub fn cylinder_failure(result: &Path) -> Result<Option<CylinderFailure>, Error>
                 )
                 .count(),
         });
+        let row = rows.last().expect("pushed");
+        if k != first && row.broken == 0 && edges.len() >= 2 {
+            let p = row.pressure;
+            let rings = ring_stresses(&state.grains, &state.contacts, center, &edges, header.depth)
+                .into_iter()
+                .map(|(r, rr, tt)| {
+                    let [lame_rr, lame_tt] = lame_free_borehole(a, b, r);
+                    [r, rr / p, lame_rr, tt / p, lame_tt]
+                })
+                .collect();
+            lame = Some(LameProfile {
+                increment: k,
+                pressure: p,
+                rings,
+            });
+        }
     }
-    let d = 2.0 * grains.mean_radius();
     // Eq. A.95 at the sample's contact density, over the annulus's area at depth D = d.
     let prediction = parse_scene(&header.scene_text, "the result's scene")
         .ok()
@@ -283,6 +371,7 @@ pub fn cylinder_failure(result: &Path) -> Result<Option<CylinderFailure>, Error>
         bonds_in_region,
         rows,
         prediction,
+        lame,
     }))
 }
 
@@ -300,6 +389,18 @@ mod tests {
         let surface = 2f64.sqrt() * 1e6 * 8.0 / 9.0;
         assert!((p.surface / surface - 1.0).abs() < 1e-12);
         assert!((p.one_diameter_in / surface - 10.0 / 7.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn lame_with_the_borehole_free_meets_both_boundaries() {
+        let (a, b) = (1.0, 3.0);
+        // Free surface: no radial stress, the tangential stress 2 b^2 / (b^2 - a^2) times p.
+        assert_eq!(lame_free_borehole(a, b, a), [0.0, 2.25]);
+        // Outside: the pressure itself radially, and sigma_rr + sigma_tt constant.
+        let [rr, tt] = lame_free_borehole(a, b, b);
+        assert!((rr - 1.0).abs() < 1e-15);
+        let [rr2, tt2] = lame_free_borehole(a, b, 2.0);
+        assert!((rr + tt - rr2 - tt2).abs() < 1e-15);
     }
 
     #[test]
@@ -322,6 +423,7 @@ mod tests {
                 row(4, 4e6, 9, 3),
             ],
             prediction: None,
+            lame: None,
         };
         assert_eq!(failure.first_break(), Some(2e6));
         assert_eq!(failure.local_failure(), Some(4e6));
