@@ -195,3 +195,85 @@ fn true_simple_shear_holds_the_width_and_the_horizontal_stress_changes() {
         }
     }
 }
+
+/// The displacement gradient `L` (`u = u0 + L x`) of the grains whose centres lie in the
+/// rectangle `[min, max]`, fitted by least squares to their moves from `before` to `after`.
+fn gradient(
+    before: &[[f64; 2]],
+    after: &[[f64; 2]],
+    min: [f64; 2],
+    max: [f64; 2],
+) -> [[f64; 2]; 2] {
+    let inside: Vec<usize> = (0..before.len())
+        .filter(|&g| (0..2).all(|k| (min[k]..max[k]).contains(&before[g][k])))
+        .collect();
+    let n = inside.len() as f64;
+    let mean = |f: &dyn Fn(usize) -> f64| inside.iter().map(|&g| f(g)).sum::<f64>() / n;
+    let x0 = [mean(&|g| before[g][0]), mean(&|g| before[g][1])];
+    let u0 = [0, 1].map(|k| mean(&|g| after[g][k] - before[g][k]));
+    let (mut xx, mut ux) = ([[0.0; 2]; 2], [[0.0; 2]; 2]);
+    for &g in &inside {
+        let x = [before[g][0] - x0[0], before[g][1] - x0[1]];
+        let u = [0, 1].map(|k| after[g][k] - before[g][k] - u0[k]);
+        for i in 0..2 {
+            for j in 0..2 {
+                xx[i][j] += x[i] * x[j];
+                ux[i][j] += u[i] * x[j];
+            }
+        }
+    }
+    let det = xx[0][0] * xx[1][1] - xx[0][1] * xx[1][0];
+    let inv = [
+        [xx[1][1] / det, -xx[0][1] / det],
+        [-xx[1][0] / det, xx[0][0] / det],
+    ];
+    [0, 1].map(|i| [0, 1].map(|j| ux[i][0] * inv[0][j] + ux[i][1] * inv[1][j]))
+}
+
+/// The elastic stage against continuum theory (eq. A.24, `tau = G gamma`): on the cemented
+/// crystal (isotropic in the plane), the shear modulus of the interior (its shear stress,
+/// eq. A.40, over its shear strain, both from the grains in the centre region) matches
+/// `E / (2 (1 + nu))` with E and nu of the same interior in a biaxial step on the same
+/// crystal (the top from 10 to 12 bar, the sides held at 10 bar; plane isotropic
+/// elasticity, A.9, solved for E and nu from both strains and both stresses).
+#[test]
+fn the_elastic_shear_modulus_matches_e_over_two_one_plus_nu() {
+    let (min, max) = ([0.6e-3, 1.0e-3], [1.8e-3, 2.6e-3]);
+    let mut biaxial = simulation(&crystal_box(
+        r#"name = "biaxial"
+increments = 2
+stress = { top = 1.2e6 }"#,
+    ));
+    let stress = |r: &IncrementReport| r.measurements.region_stress[0];
+    let s0 = stress(&increments(&mut biaxial, 2)[1]);
+    let x0 = biaxial.state.grains.position.clone();
+    let s1 = stress(&increments(&mut biaxial, 2)[1]);
+    let l = gradient(&x0, &biaxial.state.grains.position, min, max);
+    // Compression positive: eps = -L; E eps_yy + nu ds_xx = ds_yy, E eps_xx + nu ds_yy = ds_xx.
+    let (eyy, exx) = (-l[1][1], -l[0][0]);
+    let (dyy, dxx) = (s1[1][1] - s0[1][1], s1[0][0] - s0[0][0]);
+    let det = eyy * dyy - dxx * exx;
+    let e = (dyy * dyy - dxx * dxx) / det;
+    let nu = (eyy * dxx - exx * dyy) / det;
+    let g_theory = e / (2.0 * (1.0 + nu));
+
+    let mut shear = simulation(&crystal_box(
+        r#"name = "shear"
+increments = 2
+glue = ["bottom", "right", "top", "left"]
+shear_strain = { top = 1e-4 }"#,
+    ));
+    let t0 = -stress(&increments(&mut shear, 3)[2])[0][1];
+    let x0 = shear.state.grains.position.clone();
+    let t1 = -stress(&increments(&mut shear, 1)[0])[0][1];
+    let l = gradient(&x0, &shear.state.grains.position, min, max);
+    let gamma = l[0][1] + l[1][0];
+    let g = (t1 - t0) / gamma;
+    println!(
+        "interior: E {e:.4e} Pa, nu {nu:.4}, E / (2 (1 + nu)) {g_theory:.4e} Pa; G {g:.4e} Pa \
+         ({:+.2}%), its shear strain {:.3} of the walls'",
+        100.0 * (g / g_theory - 1.0),
+        gamma / 5e-5
+    );
+    assert!((g / g_theory - 1.0).abs() < 0.02);
+}
