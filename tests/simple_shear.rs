@@ -4,6 +4,9 @@
 //! simple shear the top and the sides are stress-controlled; in true simple shear the sides
 //! keep their distance (`eps_xx = 0`).
 
+mod common;
+
+use common::{assert_input_error, grainstat};
 use grainstat::scene::{build_grains, parse_scene};
 use grainstat::simulation::Simulation;
 use grainstat::solver::SolverConfig;
@@ -276,4 +279,186 @@ shear_strain = { top = 1e-4 }"#,
         gamma / 5e-5
     );
     assert!((g / g_theory - 1.0).abs() < 0.02);
+}
+
+/// Simple shear of a dense sand sample (Hertz-Mindlin, table 1; 100 grains of type A
+/// prepared to 1 bar with `f_gg' = 0` in a square) to failure: the friction angle of eq.
+/// A.25 from the centre's stresses at the peak of its shear stress, which comes before the
+/// end (it falls a tenth below it, or the sample collapses: no equilibrium beyond; the run
+/// stops there), and the centre's mean grain
+/// rotation over the walls' turn after the peak (eq. 30; reported, not bounded: on so few
+/// grains it is far from settled).
+#[test]
+fn dense_sand_fails_in_simple_shear() {
+    use grainstat::sample::prepare::{prepare, PrepareSpec, RegionShape};
+    use grainstat::sample::{write_sample, SizeDistribution, SizeKind};
+    use grainstat::scene::{CohesionRadius, LawKind};
+    use grainstat::simulation::MaterialModel;
+    let sand = MaterialModel {
+        law: LawKind::Hertz,
+        normal_stiffness: 0.0,
+        shear_modulus: 1e9,
+        poisson: 0.16,
+        friction: 0.6,
+        cohesion: 0.0,
+        cohesion_radius: CohesionRadius::Mean,
+        cohesion_horizontal: 1.0,
+        bonded: false,
+        fixed_rotations: false,
+    };
+    let spec = PrepareSpec {
+        shape: RegionShape::Rectangle,
+        aspect: 1.0,
+        grains: 100,
+        distribution: SizeDistribution::new(SizeKind::A, 1e-4, 4.0).unwrap(),
+        seed: 1,
+        friction: 0.0,
+        stress: 1e5,
+        start_fraction: 0.5,
+        solid_fraction: 0.75,
+        depth: None,
+    };
+    let prepared = prepare(&spec, &sand, &SolverConfig::default(), "t", |_, _| {}).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    write_sample(dir.path().join("sand.h5"), &prepared.sample).unwrap();
+    let [x0, y0, x1, y1] = prepared.state.grains.bounding_box();
+    let (dx, dy) = (0.25 * (x1 - x0), 0.25 * (y1 - y0));
+    let text = format!(
+        r#"
+[material]
+law = "hertz"
+shear_modulus = 1e9
+poisson = 0.16
+friction = 0.6
+[grains]
+sample = "sand.h5"
+walls = {{ bottom = "displacement", right = "stress", top = "stress", left = "stress" }}
+[[regions]]
+name = "centre"
+min = [{:e}, {:e}]
+max = [{:e}, {:e}]
+[[stages]]
+name = "shear"
+increments = 10
+glue = ["bottom", "right", "top", "left"]
+shear_strain = {{ top = 0.03 }}
+until_failure = true
+"#,
+        x0 + dx,
+        y0 + dy,
+        x1 - dx,
+        y1 - dy
+    );
+    let path = dir.path().join("shear.toml");
+    std::fs::write(&path, &text).unwrap();
+    let (scene, _) = grainstat::scene::load_scene(&path).unwrap();
+    let sample = grainstat::sample::read_sample(dir.path().join("sand.h5")).unwrap();
+    let mut sim = Simulation::from_sample(&scene, sample, SolverConfig::default(), "t").unwrap();
+    let start = sim.measure();
+    let (mut rows, mut collapsed) = (Vec::new(), false);
+    while !sim.is_finished() {
+        match sim.run_increment() {
+            Ok(r) => {
+                let m = r.measurements;
+                let s = m.region_stress[0];
+                let gamma = -sim.state.walls.walls[1].turn;
+                let sin = ((s[1][1] - s[0][0]).powi(2) + 4.0 * s[0][1] * s[1][0]).sqrt()
+                    / (s[1][1] + s[0][0]);
+                rows.push((
+                    gamma,
+                    -s[0][1],
+                    sin.asin().to_degrees(),
+                    m.region_rotation[0],
+                ));
+                println!(
+                    "gamma {gamma:.4} tau {:.4e} phi' {:.2} rotation {:.3e} sigma_xx {:.3e} sigma_yy {:.3e}",
+                    -s[0][1], sin.asin().to_degrees(), m.region_rotation[0], s[0][0], s[1][1]
+                );
+                // Failed once the shear stress has fallen a tenth below its peak.
+                let peak = rows.iter().map(|r| r.1).fold(0.0, f64::max);
+                if -s[0][1] < 0.9 * peak {
+                    break;
+                }
+            }
+            Err(e) => {
+                println!("no equilibrium beyond: {e}");
+                collapsed = true;
+                break;
+            }
+        }
+    }
+    let peak = (0..rows.len())
+        .max_by(|&a, &b| rows[a].1.total_cmp(&rows[b].1))
+        .unwrap();
+    let (last, at_peak) = (rows.last().unwrap(), rows[peak]);
+    let ratio = (last.3 - at_peak.3) / (at_peak.0 - last.0);
+    println!(
+        "peak tau {:.4e} Pa at gamma {:.4}, phi' {:.2} deg there; the centre's rotation over \
+         the walls' from there to gamma {:.4}: {ratio:.3} (from the start {:.3})",
+        at_peak.1,
+        at_peak.0,
+        at_peak.2,
+        last.0,
+        (last.3 - start.region_rotation[0]) / -last.0
+    );
+    assert!(
+        collapsed || peak + 1 < rows.len(),
+        "the shear stress peaks, or the sample collapses, before the end"
+    );
+    assert!(at_peak.2 > 15.0 && at_peak.2 < 40.0, "phi' {}", at_peak.2);
+}
+
+/// Shear strains and glue on what cannot take them are bad input: exit status 2 naming the
+/// file and the key.
+#[test]
+fn bad_shear_keys_are_input_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let box_scene = |stage: &str| crystal_box(&format!("name = \"s\"\nincrements = 1\n{stage}"));
+    let ring = format!(
+        "{}[[circles]]\nname = \"ring\"\ncenter = [1e-3, 1e-3]\nradius = 5e-3\ngrains = \"inside\"\n",
+        box_scene("shear_strain = { ring = 0.01 }")
+    );
+    // A slanted wall: nothing faces it, nothing crosses it square.
+    let lone = box_scene("shear_strain = { floor = 0.01 }").replace(
+        "[[regions]]",
+        "[[walls]]\nname = \"floor\"\npoint = [-1e-3, -1e-3]\nnormal = [1.0, 1.0]\n[[regions]]",
+    );
+    let cases = [
+        (
+            "ring.toml",
+            ring,
+            vec!["stages[1].shear_strain.ring", "not a straight wall"],
+        ),
+        (
+            "huge.toml",
+            box_scene("shear_strain = { top = 0.7 }"),
+            vec!["stages[1].shear_strain.top", "below 0.5"],
+        ),
+        (
+            "nowhere.toml",
+            box_scene("glue = [\"nowhere\"]"),
+            vec!["stages[1].glue[0]", "no wall named `nowhere`"],
+        ),
+        (
+            "lone.toml",
+            lone,
+            vec!["stages[1].shear_strain.floor", "a wall facing it"],
+        ),
+    ];
+    for (name, text, phrases) in cases {
+        let path = dir.path().join(name);
+        std::fs::write(&path, text).unwrap();
+        let file = path.display().to_string();
+        let out = grainstat(&[
+            "run",
+            &file,
+            "--quiet",
+            "--no-plot",
+            "-o",
+            &format!("{file}.h5"),
+        ]);
+        let mut expected = phrases;
+        expected.push(&file);
+        assert_input_error(&out, &expected);
+    }
 }
