@@ -137,8 +137,9 @@ pub fn kinematics(pair: Pair, grains: &GrainSet, walls: &WallSet, q: &Configurat
             let turn = q.wall_turn[w];
             let (n, t) = (rotate(nc, turn), rotate(tc, turn));
             let pivot = wall.pivot_at(wall.position);
-            let along0 = (nc[0] * ob[0] + nc[1] * ob[1] - wall.line_constant())
-                + (nc[0] * db[0] + nc[1] * db[1]);
+            let (start, moved) = wall.line_parts();
+            let along0 =
+                (nc[0] * ob[0] + nc[1] * ob[1] - start) + (nc[0] * db[0] + nc[1] * db[1] - moved);
             let across0 = tc[0] * (ob[0] - pivot[0] + db[0]) + tc[1] * (ob[1] - pivot[1] + db[1]);
             let (sin, cos) = turn.sin_cos();
             let uw = q.wall_displacement[w];

@@ -216,11 +216,26 @@ impl Wall {
 
     /// The constant of the line now along its current normal: `current_normal() . x` on it.
     pub fn line_constant(&self) -> f64 {
+        let (start, moved) = self.line_parts();
+        start + moved
+    }
+
+    /// [`Wall::line_constant`] in two parts: the line where it started and what its normal
+    /// move adds (`offset` and `position` until it turns), so that a distance can take the
+    /// small move from the small displacement before the large terms meet.
+    pub fn line_parts(&self) -> (f64, f64) {
         if self.turn == 0.0 {
-            return self.offset + self.position;
+            return (self.offset, self.position);
         }
-        let (n, p) = (self.current_normal(), self.pivot_at(self.position));
-        n[0] * p[0] + n[1] * p[1]
+        let (n, t) = (self.current_normal(), self.tangent());
+        let at_start = [
+            self.pivot[0] + self.slide * t[0],
+            self.pivot[1] + self.slide * t[1],
+        ];
+        (
+            n[0] * at_start[0] + n[1] * at_start[1],
+            self.position * (n[0] * self.normal[0] + n[1] * self.normal[1]),
+        )
     }
 
     /// The direction along the wall at the start: the normal turned 90 degrees anticlockwise
