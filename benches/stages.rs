@@ -42,7 +42,7 @@ fn simulation(scene: &Scene, config: SolverConfig) -> Simulation {
 fn pattern_of(sim: &Simulation, skin: f64) -> (FriendSet, DofMap, Pattern) {
     let (grains, walls) = (&sim.state.grains, &sim.state.walls);
     let friends = FriendSet::build(grains, walls, skin * grains.mean_radius());
-    let dofs = DofMap::new(grains.len(), false, walls);
+    let dofs = DofMap::new(grains.len(), false, walls, &[]);
     let pattern = Pattern::build(&friends, &dofs, walls, &[]);
     (friends, dofs, pattern)
 }
@@ -74,6 +74,7 @@ fn stages(c: &mut Criterion) {
         let step = LoadStep {
             normal_move: vec![0.0; walls],
             slide: vec![0.0; walls],
+            turn: vec![0.0; walls],
             stress: vec![5e5; walls],
             pressure: Vec::new(),
         };

@@ -128,6 +128,8 @@ mod tests {
             name: name.into(),
             normal: [0.0, 1.0],
             offset: 0.0,
+            pivot: [0.0; 2],
+            turn: 0.0,
             position: 0.0,
             slide: 0.0,
             control: WallControl::Displacement,

@@ -48,6 +48,8 @@ fn stage(
         stress,
         normal_move: vec![0.0; walls],
         slide: vec![0.0; walls],
+        shear_strain: vec![0.0; walls],
+        glue: vec![false; walls],
         pressure,
         control: Vec::new(),
         until_failure: false,

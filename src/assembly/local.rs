@@ -68,14 +68,13 @@ pub fn contact_block(k: &Kinematics, r: &Response, map: &PairMap, symmetric: boo
     }
 
     let mut out = LocalBlock::default();
-    for (a, feed_a) in map.feeds.iter().enumerate() {
-        let Some((ra, wa)) = *feed_a else {
-            continue;
-        };
-        out.force[ra] += wa * f[a];
-        for (b, feed_b) in map.feeds.iter().enumerate() {
-            if let Some((rb, wb)) = *feed_b {
-                out.stiffness[ra][rb] += wa * wb * kl[a][b];
+    for (a, feeds_a) in map.feeds.iter().enumerate() {
+        for &(ra, wa) in feeds_a.iter().flatten() {
+            out.force[ra] += wa * f[a];
+            for (b, feeds_b) in map.feeds.iter().enumerate() {
+                for &(rb, wb) in feeds_b.iter().flatten() {
+                    out.stiffness[ra][rb] += wa * wb * kl[a][b];
+                }
             }
         }
     }

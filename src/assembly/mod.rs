@@ -13,8 +13,23 @@ pub use local::{contact_block, LocalBlock};
 use crate::geometry::{Chain, FriendSet, Pair, Side, WallSet};
 use faer::sparse::SymbolicSparseColMat;
 
+/// How a grain glued to a wall moves in a step: as a part of its wall, which stretches with
+/// the walls across it (its span walls), so that the box's edge deforms as the box does.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Glue {
+    /// The wall the grain is glued to.
+    pub wall: usize,
+    /// The walls whose normal moves carry the grain's centre, each with the centre's move per
+    /// unit of the wall's move: its own wall (along that wall's starting normal), then its
+    /// span walls (along its own wall). The weights of a step are set by [`DofMap::follow`].
+    pub follows: [Option<(usize, [f64; 2])>; 3],
+}
+
 /// Which unknowns exist: `x, y` (and `phi` unless rotations are fixed) per grain, then one
-/// normal position per stress-controlled wall.
+/// normal position per stress-controlled wall. A grain glued to a wall moves with it as a
+/// part of it ([`Glue`]): its contacts feed the unknowns of the walls it follows instead of
+/// its own, and its own unknowns stay in place, held at zero by springs, so every grain
+/// keeps the same layout of unknowns.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DofMap {
     /// Unknowns per grain: 2 or 3.
@@ -23,13 +38,21 @@ pub struct DofMap {
     pub grains: usize,
     /// The unknown of each wall, `None` for prescribed walls.
     pub wall: Vec<Option<usize>>,
+    /// For each grain, how it follows the wall it is glued to.
+    pub glue: Vec<Option<Glue>>,
     /// Total number of unknowns.
     pub len: usize,
 }
 
 impl DofMap {
-    /// Unknowns for `grains` grains and the stress-controlled walls of `walls`.
-    pub fn new(grains: usize, fixed_rotations: bool, walls: &WallSet) -> Self {
+    /// Unknowns for `grains` grains and the stress-controlled walls of `walls`; `glued` gives
+    /// the wall each grain is glued to, if any (empty: none is).
+    pub fn new(
+        grains: usize,
+        fixed_rotations: bool,
+        walls: &WallSet,
+        glued: &[Option<usize>],
+    ) -> Self {
         let per_grain = if fixed_rotations { 2 } else { 3 };
         let mut next = grains * per_grain;
         let wall = walls
@@ -42,10 +65,25 @@ impl DofMap {
                 })
             })
             .collect();
+        let glue = (0..grains)
+            .map(|g| {
+                let w = glued.get(g).copied().flatten()?;
+                let span = walls.span_walls(w);
+                Some(Glue {
+                    wall: w,
+                    follows: [
+                        Some((w, walls.walls[w].normal)),
+                        span.map(|(a, _)| (a, [0.0; 2])),
+                        span.map(|(_, b)| (b, [0.0; 2])),
+                    ],
+                })
+            })
+            .collect();
         DofMap {
             per_grain,
             grains,
             wall,
+            glue,
             len: next,
         }
     }
@@ -65,12 +103,51 @@ impl DofMap {
         (dof < self.grains * self.per_grain).then(|| dof / self.per_grain)
     }
 
+    /// The weights with which glued grains follow their span walls in a step that turns the
+    /// walls by `turn`, from the committed `grains` and `walls`. A grain at the fraction `f`
+    /// of the way from span wall `a` to span wall `b` moves along its wall by `1 - f` of
+    /// the move of the corner where `a` meets it, and by `f` of the corner at `b`: the wall
+    /// stretches as the box grows, and a shear box whose top is stress-controlled can
+    /// dilate (rigid sides with their grains glued would hold it down). The stretch is taken
+    /// along the committed wall and then turned with it, so glued grains stay on their walls.
+    pub fn follow(&mut self, grains: &crate::geometry::GrainSet, walls: &WallSet, turn: &[f64]) {
+        let dot = |u: [f64; 2], v: [f64; 2]| u[0] * v[0] + u[1] * v[1];
+        for (g, glue) in self.glue.iter_mut().enumerate() {
+            let Some(glue) = glue else { continue };
+            let [Some(_), Some((a, _)), Some((b, _))] = glue.follows else {
+                continue;
+            };
+            let wall = &walls.walls[glue.wall];
+            let t = wall.current_tangent();
+            let x = grains.position[g];
+            let (wa, wb) = (&walls.walls[a], &walls.walls[b]);
+            let (da, db) = (wa.distance(x), wb.distance(x));
+            let f = da / (da + db);
+            // How far along `t` the corner with a span wall moves per unit of its move.
+            let corner = |s: &crate::geometry::Wall| {
+                let n = s.current_normal();
+                dot(s.normal, n) / dot(t, n)
+            };
+            let along = |share: f64| crate::geometry::rotate(t.map(|v| share * v), turn[glue.wall]);
+            glue.follows[1] = Some((a, along((1.0 - f) * corner(wa))));
+            glue.follows[2] = Some((b, along(f * corner(wb))));
+        }
+    }
+
+    /// Whether `dof` is one of a glued grain's own unknowns, held at zero.
+    pub fn held(&self, dof: usize) -> bool {
+        self.owner(dof).is_some_and(|g| self.glue[g].is_some())
+    }
+
     /// The reduced unknowns of a pair and, for each of the 6 local entries
     /// `[xa, ya, phia, xb, yb, phib]`, which reduced unknown it feeds and with what weight.
     /// A wall's unknown (its move into the sample) feeds `xa, ya` along `n`, the direction it
-    /// moves side `a` ([`crate::geometry::Wall::push_direction`]): for a line or a growing
-    /// circle the contact normal, so moving it by `s` changes the overlap by `s`, as moving a
-    /// grain `a` by `s n` would; for a moving plug the direction of its centre.
+    /// moves side `a` ([`crate::geometry::Wall::push_direction`]): for a growing circle the
+    /// contact normal, so moving it by `s` changes the overlap by `s`, as moving a grain `a`
+    /// by `s n` would; for a line its starting normal (the contact normal until it turns);
+    /// for a moving plug the direction of its centre. A glued
+    /// grain's centre entries feed the unknowns of the walls it follows; its rotation, the
+    /// wall's prescribed turn, feeds nothing.
     pub fn pair_map(&self, pair: Pair, n: [f64; 2]) -> PairMap {
         let mut m = PairMap::default();
         match pair.a {
@@ -78,8 +155,8 @@ impl DofMap {
             Side::Wall(w) => {
                 if let Some(dof) = self.wall[w] {
                     let k = m.add(dof);
-                    m.feeds[0] = Some((k, n[0]));
-                    m.feeds[1] = Some((k, n[1]));
+                    m.feeds[0][0] = Some((k, n[0]));
+                    m.feeds[1][0] = Some((k, n[1]));
                 }
             }
         }
@@ -95,22 +172,41 @@ pub struct PairMap {
     pub dofs: [usize; 6],
     /// How many of `dofs` are used.
     pub len: usize,
-    /// For each local entry: (index into `dofs`, weight).
-    pub feeds: [Option<(usize, f64)>; 6],
+    /// For each local entry: (index into `dofs`, weight), up to three (a glued grain's
+    /// centre follows its wall and its span walls).
+    pub feeds: [[Option<(usize, f64)>; 3]; 6],
 }
 
 impl PairMap {
+    /// The index of `dof` in `dofs`, added if it is not there yet (both sides of a contact
+    /// may feed one wall's unknown).
     fn add(&mut self, dof: usize) -> usize {
+        if let Some(k) = self.dofs[..self.len].iter().position(|&d| d == dof) {
+            return k;
+        }
         self.dofs[self.len] = dof;
         self.len += 1;
         self.len - 1
     }
 
     fn push_grain(&mut self, map: &DofMap, i: usize, at: usize) {
-        let base = map.grain(i);
-        for k in 0..map.per_grain {
-            let slot = self.add(base + k);
-            self.feeds[at + k] = Some((slot, 1.0));
+        match map.glue[i] {
+            Some(glue) => {
+                for (j, &(w, v)) in glue.follows.iter().flatten().enumerate() {
+                    if let Some(dof) = map.wall[w] {
+                        let k = self.add(dof);
+                        self.feeds[at][j] = Some((k, v[0]));
+                        self.feeds[at + 1][j] = Some((k, v[1]));
+                    }
+                }
+            }
+            None => {
+                let base = map.grain(i);
+                for k in 0..map.per_grain {
+                    let slot = self.add(base + k);
+                    self.feeds[at + k][0] = Some((slot, 1.0));
+                }
+            }
         }
     }
 }

@@ -2,7 +2,7 @@
 //! displacement made in this increment (the contact point of `b` relative to that of `a`,
 //! along the tangent).
 
-use crate::geometry::{GrainSet, Pair, Side, WallSet};
+use crate::geometry::{rotate, GrainSet, Pair, Side, WallSet};
 
 /// Where everything is now, and how far it moved in this increment.
 #[derive(Debug, Clone, Default)]
@@ -20,6 +20,9 @@ pub struct Configuration {
     pub wall_displacement: Vec<[f64; 2]>,
     /// Each wall's move into the sample since the start (m): its `position` now.
     pub wall_position: Vec<f64>,
+    /// Angle each straight wall turned about its pivot in this increment (rad,
+    /// anticlockwise).
+    pub wall_turn: Vec<f64>,
 }
 
 impl Configuration {
@@ -32,6 +35,7 @@ impl Configuration {
             wall_line: walls.walls.iter().map(|w| w.surface(w.position)).collect(),
             wall_displacement: vec![[0.0; 2]; walls.len()],
             wall_position: walls.walls.iter().map(|w| w.position).collect(),
+            wall_turn: vec![0.0; walls.len()],
         }
     }
 }
@@ -124,19 +128,32 @@ pub fn kinematics(pair: Pair, grains: &GrainSet, walls: &WallSet, q: &Configurat
                     flat: false,
                 };
             }
-            let n = wall.normal;
-            let t = [-n[1], n[0]];
+            // A line: in this increment it moves by `uw` and then turns by `turn` about its
+            // pivot (moved by `uw`). The grain's centre is taken in the wall's frame, along its
+            // committed normal `nc` and tangent `tc` from the pivot; the turned frame gives
+            // the distance, and the shear is the move along the wall in the wall's frame,
+            // less the grain's rotation relative to the wall's.
+            let (nc, tc) = (wall.current_normal(), wall.current_tangent());
+            let turn = q.wall_turn[w];
+            let (n, t) = (rotate(nc, turn), rotate(tc, turn));
+            let pivot = wall.pivot_at(wall.position);
+            let (start, moved) = wall.line_parts();
+            let along0 =
+                (nc[0] * ob[0] + nc[1] * ob[1] - start) + (nc[0] * db[0] + nc[1] * db[1] - moved);
+            let across0 = tc[0] * (ob[0] - pivot[0] + db[0]) + tc[1] * (ob[1] - pivot[1] + db[1]);
+            let (sin, cos) = turn.sin_cos();
             let uw = q.wall_displacement[w];
-            let dist = (n[0] * ob[0] + n[1] * ob[1] - wall.offset)
-                + (n[0] * db[0] + n[1] * db[1] - wall.position)
-                + (n[0] * (ub[0] - uw[0]) + n[1] * (ub[1] - uw[1]));
             let dd = [ub[0] - uw[0], ub[1] - uw[1]];
+            let dist = (cos * along0 + sin * across0) + (n[0] * dd[0] + n[1] * dd[1]);
             Kinematics {
                 normal: n,
                 tangent: t,
                 distance: dist,
                 overlap: rb - dist,
-                shear_increment: dd[0] * t[0] + dd[1] * t[1] - rb * q.rotation[b],
+                shear_increment: dd[0] * t[0]
+                    + dd[1] * t[1]
+                    + ((cos - 1.0) * across0 - sin * along0)
+                    - rb * (q.rotation[b] - turn),
                 shear_scale: 1.0,
                 radius_a: 0.0,
                 radius_b: rb,

@@ -12,7 +12,7 @@ pub use law::{
     Response, SlipTangent,
 };
 
-use crate::geometry::Pair;
+use crate::geometry::{Pair, Side};
 
 /// The state of a contact as written to the output.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -106,9 +106,10 @@ impl Contact {
 
     /// Whether an intact bond fails at the current response, and how: in tension when
     /// `F_n < -F_t` (eq. 12), in shear when `|F_s| > f F_n + F_t` (eq. 11). Exactly on the
-    /// limit it holds.
+    /// limit it holds. A bond with a wall is glue ([`ContactSet::glued`]): the grain moves
+    /// with the wall, so the bond carries nothing that changes, and it holds.
     pub fn bond_failure(&self) -> Option<BreakMode> {
-        if !self.bonded {
+        if !self.bonded || matches!(self.pair.a, Side::Wall(_)) {
             return None;
         }
         let (fn_, fs) = (self.response.normal_force, self.response.shear_force);
@@ -164,6 +165,20 @@ impl ContactSet {
     /// Commit every contact's converged response as its history.
     pub fn commit(&mut self) {
         self.contacts.iter_mut().for_each(Contact::commit);
+    }
+
+    /// The wall each of `grains` grains is glued to, if any. A grain is glued by bonding its
+    /// contact with the wall (a wall contact is bonded for nothing else), so the glue is
+    /// part of the contact history the result file keeps; the lowest wall holds a grain
+    /// bonded to two.
+    pub fn glued(&self, grains: usize) -> Vec<Option<usize>> {
+        let mut glued = vec![None; grains];
+        for c in self.contacts.iter().filter(|c| c.bonded) {
+            if let (Side::Wall(w), None) = (c.pair.a, glued[c.pair.b]) {
+                glued[c.pair.b] = Some(w);
+            }
+        }
+        glued
     }
 
     /// Mean overlap of the touching contacts (m), the length scale of contact forces; `None`

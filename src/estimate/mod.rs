@@ -518,6 +518,7 @@ mod tests {
             stage: (0..rows as i64).map(|k| (0, k)).collect(),
             contacts_per_grain: vec![4.0; rows],
             broken_bonds: vec![0.0; rows],
+            shear: Vec::new(),
         };
         let header = RunHeader {
             scene_name: "synthetic".into(),

@@ -32,6 +32,11 @@ pub struct FriendSet {
     pub reference: Vec<[f64; 2]>,
     /// Wall positions (normal, along) when the list was made.
     pub wall_reference: Vec<[f64; 2]>,
+    /// Wall turns when the list was made (rad).
+    pub wall_turn: Vec<f64>,
+    /// Size of the grains' bounding box (its diagonal) when the list was made (m): the
+    /// farthest a wall's grains can be from its pivot, the lever of its turn.
+    pub span: f64,
     /// Gap below which two surfaces are friends (m).
     pub skin: f64,
 }
@@ -71,19 +76,34 @@ impl FriendSet {
             pairs,
             reference: grains.position.clone(),
             wall_reference: walls.walls.iter().map(|w| [w.position, w.slide]).collect(),
+            wall_turn: walls.walls.iter().map(|w| w.turn).collect(),
+            span: {
+                let b = grains.bounding_box();
+                if n > 0 {
+                    (b[2] - b[0]).hypot(b[3] - b[1])
+                } else {
+                    0.0
+                }
+            },
             skin,
         }
     }
 
     /// Whether a grain or wall has moved half the skin since the lists were made, so that a
     /// pair outside the lists could now touch (`position`: grain centres, `wall_position`:
-    /// each wall's move into the sample).
-    pub fn is_stale(&self, position: &[[f64; 2]], wall_position: &[f64]) -> bool {
-        self.drift(position, wall_position) > 0.5 * self.skin
+    /// each wall's move into the sample, `wall_turn`: each wall's turn).
+    pub fn is_stale(
+        &self,
+        position: &[[f64; 2]],
+        wall_position: &[f64],
+        wall_turn: &[f64],
+    ) -> bool {
+        self.drift(position, wall_position, wall_turn) > 0.5 * self.skin
     }
 
-    /// The furthest any grain or wall has moved since the lists were made (m).
-    pub fn drift(&self, position: &[[f64; 2]], wall_position: &[f64]) -> f64 {
+    /// The furthest any grain or wall has moved since the lists were made (m); a wall that
+    /// turned moves its line by up to the turn times the span of the grains.
+    pub fn drift(&self, position: &[[f64; 2]], wall_position: &[f64], wall_turn: &[f64]) -> f64 {
         let grains = position
             .iter()
             .zip(&self.reference)
@@ -91,7 +111,8 @@ impl FriendSet {
         let walls = wall_position
             .iter()
             .zip(&self.wall_reference)
-            .map(|(w, q)| (w - q[0]).abs());
+            .zip(wall_turn.iter().zip(&self.wall_turn))
+            .map(|((w, q), (turn, was))| (w - q[0]).abs() + (turn - was).abs() * self.span);
         grains.chain(walls).fold(0.0, f64::max)
     }
 }

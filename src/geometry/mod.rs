@@ -169,18 +169,25 @@ impl Circle {
     }
 }
 
-/// A rigid wall: a straight line `normal . x = offset + position` with the grains on the side
-/// the normal points to, or a circle. A line moves along its normal (`position`) and along
-/// itself (`slide`); a circle grows or shrinks, or a plug's centre moves along its `moves`
+/// A rigid wall: a straight line with the grains on the side its normal points to, or a
+/// circle. A line moves along its starting normal (`position`) and along itself (`slide`),
+/// and may turn about its pivot (`turn`): it passes through `pivot + position normal + slide
+/// tangent` with the normal turned by `turn`, so unturned it is `normal . x = offset +
+/// position`. A circle grows or shrinks, or a plug's centre moves along its `moves`
 /// (`position`, into the sample positive).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Wall {
     /// Name from the scene.
     pub name: String,
-    /// Unit normal into the sample.
+    /// Unit normal into the sample at the start (before any turn).
     pub normal: [f64; 2],
     /// `normal . point` of the wall at the start.
     pub offset: f64,
+    /// The point of the starting line the wall turns about (m) (it moves with the wall's
+    /// `position` and `slide`): a box's side walls turn about their bottom ends.
+    pub pivot: [f64; 2],
+    /// Angle the line has turned about its pivot since the start (rad, anticlockwise).
+    pub turn: f64,
     /// Displacement along the normal since the start (m) (into the sample positive).
     pub position: f64,
     /// Displacement along the wall since the start (m) (along `tangent()`).
@@ -199,7 +206,7 @@ pub struct Wall {
 
 impl Wall {
     /// The wall's surface constant after moving `position` into the sample: the line constant
-    /// `offset + position`, or the circle's current radius.
+    /// `offset + position` along its starting normal, or the circle's current radius.
     pub fn surface(&self, position: f64) -> f64 {
         match &self.circle {
             Some(c) => c.radius_at(position),
@@ -207,56 +214,104 @@ impl Wall {
         }
     }
 
-    /// The direction along the wall: the normal turned 90 degrees anticlockwise.
+    /// The constant of the line now along its current normal: `current_normal() . x` on it.
+    pub fn line_constant(&self) -> f64 {
+        let (start, moved) = self.line_parts();
+        start + moved
+    }
+
+    /// [`Wall::line_constant`] in two parts: the line where it started and what its normal
+    /// move adds (`offset` and `position` until it turns), so that a distance can take the
+    /// small move from the small displacement before the large terms meet.
+    pub fn line_parts(&self) -> (f64, f64) {
+        if self.turn == 0.0 {
+            return (self.offset, self.position);
+        }
+        let (n, t) = (self.current_normal(), self.tangent());
+        let at_start = [
+            self.pivot[0] + self.slide * t[0],
+            self.pivot[1] + self.slide * t[1],
+        ];
+        (
+            n[0] * at_start[0] + n[1] * at_start[1],
+            self.position * (n[0] * self.normal[0] + n[1] * self.normal[1]),
+        )
+    }
+
+    /// The direction along the wall at the start: the normal turned 90 degrees anticlockwise
+    /// (the direction of `slide`).
     pub fn tangent(&self) -> [f64; 2] {
         [-self.normal[1], self.normal[0]]
     }
 
+    /// The normal into the sample now: the starting one turned by `turn`.
+    pub fn current_normal(&self) -> [f64; 2] {
+        rotate(self.normal, self.turn)
+    }
+
+    /// The direction along the wall now: the current normal turned 90 degrees anticlockwise.
+    pub fn current_tangent(&self) -> [f64; 2] {
+        let n = self.current_normal();
+        [-n[1], n[0]]
+    }
+
+    /// Where the pivot is after the wall moved `position` into the sample (and `slide` along
+    /// itself).
+    pub fn pivot_at(&self, position: f64) -> [f64; 2] {
+        let t = self.tangent();
+        [
+            self.pivot[0] + position * self.normal[0] + self.slide * t[0],
+            self.pivot[1] + position * self.normal[1] + self.slide * t[1],
+        ]
+    }
+
     /// Where this straight wall's line meets `other`'s; `None` when they are parallel.
     pub fn corner(&self, other: &Wall) -> Option<[f64; 2]> {
-        let (a, b) = (self, other);
-        let det = a.normal[0] * b.normal[1] - a.normal[1] * b.normal[0];
+        let (a, b) = (self.current_normal(), other.current_normal());
+        let det = a[0] * b[1] - a[1] * b[0];
         if det.abs() < 1e-9 {
             return None;
         }
-        let (ca, cb) = (a.surface(a.position), b.surface(b.position));
-        Some([
-            (ca * b.normal[1] - cb * a.normal[1]) / det,
-            (a.normal[0] * cb - b.normal[0] * ca) / det,
-        ])
+        let (ca, cb) = (self.line_constant(), other.line_constant());
+        Some([(ca * b[1] - cb * a[1]) / det, (a[0] * cb - b[0] * ca) / det])
     }
 
     /// Signed distance from the wall's surface to a point (positive on the sample side).
     pub fn distance(&self, x: [f64; 2]) -> f64 {
-        let surface = self.surface(self.position);
         match &self.circle {
             Some(c) => {
+                let surface = self.surface(self.position);
                 let center = c.center_at(self.position);
                 let from_center = (x[0] - center[0]).hypot(x[1] - center[1]);
                 -c.sign() * (surface - from_center)
             }
-            None => self.normal[0] * x[0] + self.normal[1] * x[1] - surface,
+            None => {
+                let n = self.current_normal();
+                n[0] * x[0] + n[1] * x[1] - self.line_constant()
+            }
         }
     }
 
     /// The direction in which a unit move of this wall carries its side of a contact whose
-    /// normal is `normal`: the centre's direction for a moving plug, else the normal itself
-    /// (a line moves along it; a growing circle's surface moves out along it).
+    /// normal is `normal`: the centre's direction for a moving plug, the contact normal for a
+    /// growing circle (its surface moves out along it), a line's starting normal (a turned
+    /// line still moves along it).
     pub fn push_direction(&self, normal: [f64; 2]) -> [f64; 2] {
-        match self.circle.and_then(|c| c.moves) {
-            Some(m) => m,
-            None => normal,
+        match self.circle {
+            Some(c) => c.moves.unwrap_or(normal),
+            None => self.normal,
         }
     }
 
-    /// Whether two straight walls face each other (opposite normals).
+    /// Whether two straight walls face each other (opposite normals at the start: walls that
+    /// turn keep the box they started as).
     pub fn faces(&self, other: &Wall) -> bool {
         self.circle.is_none()
             && other.circle.is_none()
             && self.normal[0] * other.normal[0] + self.normal[1] * other.normal[1] < -0.999
     }
 
-    /// Whether two straight walls are perpendicular.
+    /// Whether two straight walls are perpendicular (at the start).
     pub fn perpendicular_to(&self, other: &Wall) -> bool {
         self.circle.is_none()
             && other.circle.is_none()
@@ -310,7 +365,13 @@ impl WallSet {
         None
     }
 
-    /// Distance between two facing walls.
+    /// The first straight wall facing wall `w`.
+    pub fn facing(&self, w: usize) -> Option<usize> {
+        self.walls.iter().position(|o| o.faces(&self.walls[w]))
+    }
+
+    /// Distance between two facing walls (along their starting normals: the height of a
+    /// shear box whose side walls turned).
     pub fn gap(&self, a: usize, b: usize) -> f64 {
         let (wa, wb) = (&self.walls[a], &self.walls[b]);
         // Lines n.x = ca and -n.x = cb: the gap is -(ca + cb).
@@ -366,7 +427,10 @@ impl WallSet {
             return None;
         }
         let mut order: Vec<usize> = (0..lines.len()).collect();
-        let angle = |w: &Wall| w.normal[1].atan2(w.normal[0]);
+        let angle = |w: &Wall| {
+            let n = w.current_normal();
+            n[1].atan2(n[0])
+        };
         order.sort_by(|&a, &b| angle(lines[a]).total_cmp(&angle(lines[b])));
         let mut corners = Vec::with_capacity(order.len());
         for k in 0..order.len() {
@@ -375,6 +439,12 @@ impl WallSet {
         let area = polygon_area(&corners);
         (area > 0.0).then_some(area)
     }
+}
+
+/// `v` turned by `angle` (rad, anticlockwise).
+pub fn rotate(v: [f64; 2], angle: f64) -> [f64; 2] {
+    let (s, c) = angle.sin_cos();
+    [c * v[0] - s * v[1], s * v[0] + c * v[1]]
 }
 
 /// Signed area of a polygon (positive when its corners run anticlockwise).

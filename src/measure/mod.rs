@@ -6,6 +6,7 @@ mod region;
 
 pub use region::{Region, RegionShape};
 
+use crate::assembly::DofMap;
 use crate::contact::{kinematics, Configuration, ContactSet};
 use crate::geometry::{polygon_area, Chain, GrainSet, Membrane, MembraneShape, Side, WallSet};
 
@@ -20,6 +21,8 @@ pub struct Measurements {
     /// Normal stress on each wall: force / (loaded length * depth) (Pa); between membranes the
     /// loaded length is the grains' extent along the wall.
     pub wall_stress: Vec<f64>,
+    /// Shear stress on each wall: its shear force / (loaded length * depth) (Pa).
+    pub wall_shear_stress: Vec<f64>,
     /// Macro stress `sigma_ij = (1/V) sum_c d_i F_j` (eq. A.41), compression positive (Pa),
     /// over every contact, wall contacts included (their branch runs to the wall line), and
     /// over the membranes' loads on their grains (the branch from the grain's surface).
@@ -46,6 +49,9 @@ pub struct Measurements {
     /// Stress in each region (eq. A.40 over the grains whose centres lie in it, divided by
     /// its area times the depth), compression positive (Pa), indexed as `macro_stress`.
     pub region_stress: Vec<[[f64; 2]; 2]>,
+    /// Mean rotation of the grains whose centres lie in each region (rad, anticlockwise):
+    /// the thesis's `gamma_mu` of the interior (eq. 30).
+    pub region_rotation: Vec<f64>,
 }
 
 /// Add `u_i f_j` to `sum`.
@@ -67,6 +73,13 @@ pub struct MembraneBoundary<'a> {
 }
 
 /// Measure a converged state, with the stress in each of `regions`.
+///
+/// A grain glued to a wall is a part of it: its contacts with that wall and with grains
+/// glued to the same wall are the glue, which carries nothing measured, and the forces of
+/// the other grains on it load the walls it follows ([`crate::assembly::Glue`]): a wall's
+/// normal force is then the force its normal move works against (for a stress-controlled
+/// wall, in equilibrium, its applied load), and its shear force the force along it on the
+/// grains glued to it.
 ///
 /// Eq. A.41 sums `d_i F_j` over the contacts, `d` the branch from one side to the other;
 /// eq. A.40 sums over each grain `u_i F_j` of its contacts, `u` from its centre to the
@@ -101,8 +114,25 @@ pub fn measure(
             }
         }
     };
+    let glued = contacts.glued(grains.len());
+    let mut glue = DofMap::new(grains.len(), false, walls, &glued);
+    glue.follow(grains, walls, &vec![0.0; walls.len()]);
     let mut sum = [[0.0; 2]; 2];
     for c in &contacts.contacts {
+        match c.pair.a {
+            Side::Wall(_) => m.wall_contacts += 1,
+            Side::Grain(_) => {
+                m.grain_contacts += 1;
+                m.bonds += c.bonded as usize;
+            }
+        }
+        let wall_of_a = match c.pair.a {
+            Side::Wall(w) => Some(w),
+            Side::Grain(a) => glued[a],
+        };
+        if wall_of_a.is_some() && wall_of_a == glued[c.pair.b] {
+            continue;
+        }
         let k = kinematics(c.pair, grains, walls, &q);
         let (fn_, fs) = (c.response.normal_force, c.response.shear_force);
         // Force on side b: F_n n - F_s t; branch from a's centre, or from the contact point on
@@ -125,9 +155,19 @@ pub fn measure(
             Side::Wall(_) => arm,
         };
         to_regions(c.pair.b, along(b_arm), force);
+        // A glued grain: the force on it (on side a, `-force`) loads the walls it follows.
+        let mut on_glued = |g: usize, f: [f64; 2]| {
+            let Some(glue) = glue.glue[g] else { return };
+            for &(w, v) in glue.follows.iter().flatten() {
+                m.wall_normal_force[w] -= f[0] * v[0] + f[1] * v[1];
+            }
+            let t = walls.walls[glue.wall].current_tangent();
+            m.wall_shear_force[glue.wall] += f[0] * t[0] + f[1] * t[1];
+        };
+        on_glued(c.pair.b, force);
         match c.pair.a {
+            Side::Grain(a) => on_glued(a, [-force[0], -force[1]]),
             Side::Wall(w) => {
-                m.wall_contacts += 1;
                 match walls.walls[w].circle.and_then(|c| c.moves) {
                     // A moving plug: the force along its direction and across it.
                     Some(d) => {
@@ -140,9 +180,7 @@ pub fn measure(
                     }
                 }
             }
-            Side::Grain(_) => m.grain_contacts += 1,
         }
-        m.bonds += c.bonded as usize;
     }
     // A membrane acts on its grains' surfaces: branch r f / |f| from there to the centre.
     for (membrane, chain) in boundary.membranes.iter().zip(boundary.chains) {
@@ -161,14 +199,32 @@ pub fn measure(
         .zip(&region_sums)
         .map(|(r, s)| s.map(|row| row.map(|v| v / (r.area() * depth))))
         .collect();
+    m.region_rotation = members
+        .iter()
+        .map(|inside| {
+            let (sum, count) = grains
+                .rotation
+                .iter()
+                .zip(inside)
+                .filter(|(_, &i)| i)
+                .fold((0.0, 0usize), |(s, n), (r, _)| (s + r, n + 1));
+            sum / count.max(1) as f64
+        })
+        .collect();
     let n = grains.len().max(1) as f64;
     m.mean_rotation = grains.rotation.iter().sum::<f64>() / n;
     m.mean_absolute_rotation = grains.rotation.iter().map(|r| r.abs()).sum::<f64>() / n;
     m.broken_bonds = contacts.broken_bonds.len();
     m.volume = enclosed_area(grains, walls, boundary).map_or(f64::NAN, |a| a * depth);
     m.macro_stress = sum.map(|row| row.map(|s| s / m.volume));
+    let length: Vec<f64> = (0..walls.len())
+        .map(|w| walls.loaded_length(w, grains) * depth)
+        .collect();
     m.wall_stress = (0..walls.len())
-        .map(|w| m.wall_normal_force[w] / (walls.loaded_length(w, grains) * depth))
+        .map(|w| m.wall_normal_force[w] / length[w])
+        .collect();
+    m.wall_shear_stress = (0..walls.len())
+        .map(|w| m.wall_shear_force[w] / length[w])
         .collect();
     m.contacts_per_grain = 2.0 * m.grain_contacts as f64 / grains.len().max(1) as f64;
     m
@@ -230,7 +286,10 @@ fn enclosed_area(grains: &GrainSet, walls: &WallSet, boundary: MembraneBoundary)
         .walls
         .iter()
         .filter(|w| w.circle.is_none())
-        .map(|w| ((-w.normal[1]).atan2(-w.normal[0]), Piece::Wall(w)))
+        .map(|w| {
+            let n = w.current_normal();
+            ((-n[1]).atan2(-n[0]), Piece::Wall(w))
+        })
         .collect();
     for (m, chain) in boundary.membranes.iter().zip(boundary.chains) {
         if let MembraneShape::Side { outward } = m.shape {

@@ -68,6 +68,10 @@ pub struct Curves {
     pub contacts_per_grain: Vec<f64>,
     /// Bonds broken so far.
     pub broken_bonds: Vec<f64>,
+    /// The simple shear curves, when walls turned (see [`shear_curves`]): the shear strain
+    /// first, then the wall shear stresses and each region's stresses, principal direction,
+    /// mobilised friction angle and grain rotation.
+    pub shear: Vec<Curve>,
 }
 
 impl Curves {
@@ -77,7 +81,7 @@ impl Curves {
         let position = history.wall("wall_position");
         let applied = history.wall("wall_applied_stress");
         let measured = history.wall("wall_stress");
-        let walls: Vec<Wall> = header.walls.iter().map(|h| h.wall(0.0, 0.0, 0.0)).collect();
+        let walls: Vec<Wall> = header.walls.iter().map(|h| h.wall([0.0; 3], 0.0)).collect();
         // Gap between a pair of opposite walls at a row, and its strain since the first row
         // (a test that starts from a prepared sample starts where the preparation ended).
         let gap = |[i, j]: [usize; 2], r: usize| {
@@ -359,8 +363,131 @@ impl Curves {
                 .iter()
                 .map(|&k| k as f64)
                 .collect(),
+            shear: shear_curves(header, history),
         }
     }
+}
+
+/// The curves of a simple shear test, when a wall turned: the shear strain `gamma`, the
+/// turn of the first wall that turned (clockwise positive, as a box whose top moves along
+/// +x shears), the shear stress `sigma_xy` on each straight wall that carries one (tension
+/// positive: the shear force on the wall along its tangent over its area, divided by
+/// `n_x^2 - n_y^2` of its normal, -1 for a top or bottom, +1 for a side), and for each region
+/// (the thesis measures the interior, 3.3.4): `sigma_xx`, `sigma_yy`, `sigma_xy` (eq. A.40,
+/// compression positive, so `-sigma_xy` is the shear stress the top's push along +x makes),
+/// the direction of the major principal stress `beta` (degrees from +x, anticlockwise, in
+/// [0, 180): 135 under a pure shear stress of this sense, the thesis's 45 mirrored), the
+/// mobilised friction angle of eq. A.25 and the ratio of the region's mean grain rotation to
+/// the wall's (eq. 30: about 0.5 during failure by the thesis). Empty when no wall turned.
+pub fn shear_curves(header: &RunHeader, history: &History) -> Vec<Curve> {
+    let rows = history.len();
+    let turn = history.wall("wall_turn");
+    let Some(w) = (0..header.walls.len()).find(|&w| turn.iter().any(|r| r[w] != 0.0)) else {
+        return Vec::new();
+    };
+    let wall_turn: Vec<f64> = turn.iter().map(|r| r[w]).collect();
+    let curve = |key: String, label: String, from_contacts: bool, values: Vec<f64>| Curve {
+        key,
+        label,
+        from_contacts,
+        values,
+    };
+    let mut curves = vec![curve(
+        "shear_strain".into(),
+        format!("shear strain γ (turn of {})", header.walls[w].name),
+        false,
+        wall_turn.iter().map(|t| -t).collect(),
+    )];
+    let shear_stress = history.wall("wall_shear_stress");
+    for (k, wall) in header.walls.iter().enumerate() {
+        let n = wall.normal;
+        let sense = n[0] * n[0] - n[1] * n[1];
+        let values: Vec<f64> = shear_stress.iter().map(|r| r[k] / sense).collect();
+        if wall.circle.is_none()
+            && sense.abs() > 0.5
+            && values.iter().any(|v| *v != 0.0 && v.is_finite())
+        {
+            curves.push(curve(
+                format!("tau_walls:{}", csv_name(&wall.name)),
+                format!("τ on {}", wall.name),
+                false,
+                values,
+            ));
+        }
+    }
+    let (xx, yy, xy, yx) = (
+        history.region("region_stress_xx"),
+        history.region("region_stress_yy"),
+        history.region("region_stress_xy"),
+        history.region("region_stress_yx"),
+    );
+    let rotation = history.region("region_rotation");
+    for (k, region) in header.regions.iter().enumerate() {
+        let name = csv_name(&region.name);
+        let at = |table: &[Vec<f64>], r: usize| table.get(r).and_then(|v| v.get(k)).copied();
+        let stress = |r: usize| -> [f64; 3] {
+            let get = |t: &[Vec<f64>]| at(t, r).unwrap_or(f64::NAN);
+            [get(xx), get(yy), 0.5 * (get(xy) + get(yx))]
+        };
+        let column = |f: &dyn Fn(usize) -> f64| (0..rows).map(f).collect::<Vec<f64>>();
+        curves.extend([
+            curve(
+                format!("sigma_xx:{name}"),
+                format!("σ_xx in {}", region.name),
+                true,
+                column(&|r| stress(r)[0]),
+            ),
+            curve(
+                format!("sigma_yy:{name}"),
+                format!("σ_yy in {}", region.name),
+                true,
+                column(&|r| stress(r)[1]),
+            ),
+            curve(
+                format!("tau:{name}"),
+                format!("τ = -σ_xy in {}", region.name),
+                true,
+                column(&|r| -stress(r)[2]),
+            ),
+            curve(
+                format!("beta:{name}"),
+                format!("β, major principal direction in {}", region.name),
+                true,
+                column(&|r| principal_direction(stress(r))),
+            ),
+            curve(
+                format!("phi:{name}"),
+                format!("φ' of eq. A.25 in {}", region.name),
+                true,
+                column(&|r| friction_angle(stress(r))),
+            ),
+            curve(
+                format!("rotation_ratio:{name}"),
+                format!("γ_μ / γ in {}", region.name),
+                true,
+                column(&|r| match at(rotation, r) {
+                    Some(g) if wall_turn[r] != 0.0 => g / wall_turn[r],
+                    _ => f64::NAN,
+                }),
+            ),
+        ]);
+    }
+    curves
+}
+
+/// The direction of the major (most compressive) principal stress of `[sigma_xx, sigma_yy,
+/// sigma_xy]` (compression positive), in degrees from +x, anticlockwise, in [0, 180).
+pub fn principal_direction([xx, yy, xy]: [f64; 3]) -> f64 {
+    (0.5 * (2.0 * xy).atan2(xx - yy))
+        .to_degrees()
+        .rem_euclid(180.0)
+}
+
+/// The friction angle mobilised by `[sigma_xx, sigma_yy, sigma_xy]` (eq. A.25, degrees):
+/// `sin phi' = sqrt((s_yy - s_xx)^2 + 4 s_xy^2) / (s_yy + s_xx)`.
+pub fn friction_angle([xx, yy, xy]: [f64; 3]) -> f64 {
+    let sin = ((yy - xx).powi(2) + 4.0 * xy * xy).sqrt() / (yy + xx);
+    sin.asin().to_degrees()
 }
 
 /// Units of a `/history` dataset, for the CSV header.
@@ -369,9 +496,18 @@ fn history_unit(name: &str) -> &'static str {
         "volume" => "m^3",
         "wall_position" | "wall_slide" => "m",
         "wall_normal_force" | "wall_shear_force" => "N",
-        "mean_rotation" | "mean_absolute_rotation" => "rad",
+        "mean_rotation" | "mean_absolute_rotation" | "wall_turn" | "region_rotation" => "rad",
         n if n.starts_with("macro_stress") || n.starts_with("region_stress") => "Pa",
         n if n.ends_with("stress") => "Pa",
+        _ => "-",
+    }
+}
+
+/// Units of a shear curve, for the CSV header.
+fn shear_unit(key: &str) -> &'static str {
+    match key.split(':').next().unwrap_or_default() {
+        "tau_walls" | "sigma_xx" | "sigma_yy" | "tau" => "Pa",
+        "beta" | "phi" => "deg",
         _ => "-",
     }
 }
@@ -438,6 +574,7 @@ pub fn write_csv(
         derived.extend(curves.stresses.iter().map(|c| (c, "Pa")));
     }
     derived.extend(curves.volumetric_strain.iter().map(|c| (c, "-")));
+    derived.extend(curves.shear.iter().map(|c| (c, shear_unit(&c.key))));
     for (curve, unit) in derived {
         head.push(format!("{} [{unit}]", curve.key));
         columns.push(curve.values.iter().map(float).collect());
@@ -479,6 +616,7 @@ mod tests {
             name: name.into(),
             normal,
             offset,
+            pivot: normal.map(|v| v * offset),
             control,
             friction: 0.0,
             length: None,

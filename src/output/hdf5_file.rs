@@ -85,6 +85,8 @@ pub struct WallHeader {
     pub normal: [f64; 2],
     /// `normal . point` of the wall at the start (m).
     pub offset: f64,
+    /// The point of the starting line the wall turns about (m).
+    pub pivot: [f64; 2],
     /// Displacement- or stress-controlled.
     pub control: WallControl,
     /// Grain-wall friction (`INFINITY` when glued).
@@ -102,6 +104,7 @@ impl WallHeader {
             name: wall.name.clone(),
             normal: wall.normal,
             offset: wall.offset,
+            pivot: wall.pivot,
             control: wall.control,
             friction: wall.friction,
             length: wall.length,
@@ -109,12 +112,14 @@ impl WallHeader {
         }
     }
 
-    /// The wall again, at a position, slide and applied stress.
-    pub fn wall(&self, position: f64, slide: f64, stress: f64) -> Wall {
+    /// The wall again, at a position, slide, turn and applied stress.
+    pub fn wall(&self, [position, slide, turn]: [f64; 3], stress: f64) -> Wall {
         Wall {
             name: self.name.clone(),
             normal: self.normal,
             offset: self.offset,
+            pivot: self.pivot,
+            turn,
             position,
             slide,
             control: self.control,
@@ -568,10 +573,24 @@ pub fn read_history(path: impl AsRef<Path>) -> Result<History, Error> {
                 Ok((name, rows))
             })
             .collect::<R<Vec<_>>>()?;
-        let regions = REGION_STRESS
+        // Tables added since a file was written read as unknown.
+        let table = |name: &'static str, width: usize| -> R<(&'static str, Vec<Vec<f64>>)> {
+            let rows = read_table(&h, name, rows, &keep)?;
+            match rows.is_empty() && !keep.is_empty() {
+                true => Ok((name, vec![vec![f64::NAN; width]; keep.len()])),
+                false => Ok((name, rows)),
+            }
+        };
+        let mut wall_columns = wall_columns;
+        for name in WALL_SHEAR {
+            wall_columns.push(table(name, walls)?);
+        }
+        let region_count = read_regions(&file)?.len();
+        let mut regions = REGION_STRESS
             .iter()
             .map(|&name| Ok((name, read_table(&h, name, rows, &keep)?)))
             .collect::<R<Vec<_>>>()?;
+        regions.push(table(REGION_ROTATION, region_count)?);
         Ok(History {
             ints,
             floats,
@@ -888,6 +907,8 @@ pub(crate) fn write_walls(group: &Group, walls: &[WallHeader]) -> R<()> {
     put(group, "normal", ArrayView2::from(&normal[..]))?;
     let offset: Vec<f64> = walls.iter().map(|w| w.offset).collect();
     put(group, "offset", ArrayView1::from(&offset[..]))?;
+    let pivot: Vec<[f64; 2]> = walls.iter().map(|w| w.pivot).collect();
+    put(group, "pivot", ArrayView2::from(&pivot[..]))?;
     let control: Vec<String> = walls
         .iter()
         .map(|w| control_name(w.control).to_owned())
@@ -925,6 +946,11 @@ pub(crate) fn read_walls(group: &Group, w: usize) -> R<Vec<WallHeader>> {
     let names = read_vec::<VarLenUnicode>(group, "name", Some(w))?;
     let normal = read_rows::<f64, 2>(group, "normal", Some(w))?;
     let offset = read_vec::<f64>(group, "offset", Some(w))?;
+    // Files written before walls turned: each wall's foot from the origin, on its line.
+    let pivot = match group.link_exists("pivot") {
+        true => read_rows::<f64, 2>(group, "pivot", Some(w))?,
+        false => (0..w).map(|k| normal[k].map(|v| v * offset[k])).collect(),
+    };
     let control = read_vec::<VarLenUnicode>(group, "control", Some(w))?;
     let friction = read_vec::<f64>(group, "friction", Some(w))?;
     let length = read_vec::<f64>(group, "length", Some(w))?;
@@ -944,6 +970,7 @@ pub(crate) fn read_walls(group: &Group, w: usize) -> R<Vec<WallHeader>> {
                 name: names[k].as_str().to_owned(),
                 normal: normal[k],
                 offset: offset[k],
+                pivot: pivot[k],
                 control,
                 friction: friction[k],
                 length: (!length[k].is_nan()).then_some(length[k]),
@@ -1158,6 +1185,7 @@ fn write_group_state(g: &Group, state: &State, report: &IncrementReport) -> R<()
         |f: fn(&Wall) -> f64| -> Array1<f64> { state.walls.walls.iter().map(f).collect() };
     put(&walls, "position", wall_column(|w| w.position).view())?;
     put(&walls, "slide", wall_column(|w| w.slide).view())?;
+    put(&walls, "turn", wall_column(|w| w.turn).view())?;
     put(&walls, "stress", wall_column(|w| w.stress).view())?;
     let normal_force = per_wall(&m.wall_normal_force, nw);
     put(&walls, "normal_force", ArrayView1::from(&normal_force[..]))?;
@@ -1232,12 +1260,17 @@ fn read_group_state(g: &Group, h: &RunHeader) -> R<State> {
     let walls = g.group("walls")?;
     let wall_position = read_vec::<f64>(&walls, "position", Some(nw))?;
     let slide = read_vec::<f64>(&walls, "slide", Some(nw))?;
+    // No turns in a file written before walls turned.
+    let turn = match walls.link_exists("turn") {
+        true => read_vec::<f64>(&walls, "turn", Some(nw))?,
+        false => vec![0.0; nw],
+    };
     let stress = read_vec::<f64>(&walls, "stress", Some(nw))?;
     let walls = h
         .walls
         .iter()
         .enumerate()
-        .map(|(k, w)| w.wall(wall_position[k], slide[k], stress[k]))
+        .map(|(k, w)| w.wall([wall_position[k], slide[k], turn[k]], stress[k]))
         .collect();
 
     let c = g.group("contacts")?;
@@ -1376,6 +1409,13 @@ const MEMBRANE_PRESSURE: &str = "membrane_pressure";
 /// counted). Kept apart from the other integer columns, so files written before it read.
 const NEGATIVE_PIVOTS: &str = "negative_pivots";
 
+/// Each wall's turn (rad) and shear stress (Pa), a row of `W` values per increment, kept
+/// apart from the walls' first columns so files written before them read.
+const WALL_SHEAR: [&str; 2] = ["wall_turn", "wall_shear_stress"];
+
+/// Each region's mean grain rotation (rad), a row of `R` values per increment.
+const REGION_ROTATION: &str = "region_rotation";
+
 /// Each region's stress (eq. A.40), a row of `R` values per component and increment.
 const REGION_STRESS: [&str; 4] = [
     "region_stress_xx",
@@ -1405,6 +1445,8 @@ impl Widths {
     fn tables(self) -> impl Iterator<Item = (&'static str, usize)> {
         std::iter::once((MEMBRANE_PRESSURE, self.membranes))
             .chain(REGION_STRESS.iter().map(move |&n| (n, self.regions)))
+            .chain(WALL_SHEAR.iter().map(move |&n| (n, self.walls)))
+            .chain(std::iter::once((REGION_ROTATION, self.regions)))
     }
 }
 
@@ -1562,6 +1604,19 @@ fn append_history(
         };
         append_table_row(h, name, row, &stress)?;
     }
+    let turn: Vec<f64> = state.walls.walls.iter().map(|w| w.turn).collect();
+    append_table_row(h, WALL_SHEAR[0], row, &turn)?;
+    append_table_row(
+        h,
+        WALL_SHEAR[1],
+        row,
+        &per_wall(&m.wall_shear_stress, walls),
+    )?;
+    let rotation = match m.region_rotation.len() == widths.regions {
+        true => m.region_rotation.clone(),
+        false => vec![f64::NAN; widths.regions],
+    };
+    append_table_row(h, REGION_ROTATION, row, &rotation)?;
     for (name, value) in HISTORY_FLOAT.iter().zip(floats) {
         append_scalar(h, name, row, value)?;
     }
@@ -1591,6 +1646,8 @@ fn leading_rows(h: &Group, keep: impl Fn(i64) -> bool) -> R<usize> {
         .chain(&HISTORY_FLOAT)
         .chain(&HISTORY_WALL)
         .chain(&REGION_STRESS)
+        .chain(&WALL_SHEAR)
+        .chain(&[REGION_ROTATION])
     {
         if h.link_exists(name) {
             rows = rows.min(dataset(h, name)?.shape().first().copied().unwrap_or(0));

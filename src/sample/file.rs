@@ -374,7 +374,7 @@ fn read_file(file: &File) -> R<SampleFile> {
         walls.walls = read_walls(&w, count)?
             .iter()
             .zip(position.iter().zip(&stress))
-            .map(|(h, (&p, &s))| h.wall(p, 0.0, s))
+            .map(|(h, (&p, &s))| h.wall([p, 0.0, 0.0], s))
             .collect();
         let c = file.group("contacts")?;
         let pair = read_rows::<i64, 2>(&c, "pair", None)?;

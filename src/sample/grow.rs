@@ -123,7 +123,8 @@ pub fn grow(
         // towards each other, by half the skin.
         let grown = (scale - radius_at_build) * 2.0 * r_max;
         let wall_position: Vec<f64> = walls.walls.iter().map(|w| w.position).collect();
-        if grown > 0.5 * skin || friends.is_stale(&now.position, &wall_position) {
+        let wall_turn: Vec<f64> = walls.walls.iter().map(|w| w.turn).collect();
+        if grown > 0.5 * skin || friends.is_stale(&now.position, &wall_position, &wall_turn) {
             let old = std::mem::replace(&mut friends, FriendSet::build(&now, walls, skin));
             shear = friends
                 .pairs

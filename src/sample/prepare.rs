@@ -108,6 +108,8 @@ fn region_walls(region: &Region, stress: f64) -> WallSet {
         name: name.into(),
         normal,
         offset,
+        pivot: [offset * normal[0], offset * normal[1]],
+        turn: 0.0,
         position: 0.0,
         slide: 0.0,
         control: if stressed {
@@ -225,6 +227,8 @@ pub fn prepare(
             .collect(),
         normal_move: vec![0.0; walls.len()],
         slide: vec![0.0; walls.len()],
+        shear_strain: vec![0.0; walls.len()],
+        glue: vec![false; walls.len()],
         pressure: Vec::new(),
         control: Vec::new(),
         until_failure: false,

@@ -8,8 +8,8 @@
 mod load;
 mod validate;
 
-pub(crate) use load::read_grain_csv;
 pub use load::{build_grains, load_scene, load_solver, parse_scene, parse_solver};
+pub(crate) use load::{child_key, read_grain_csv};
 pub(crate) use validate::start_overlap;
 
 use serde::{Deserialize, Deserializer, Serialize};
@@ -324,6 +324,19 @@ pub struct Stage {
     /// normal turned 90 degrees anticlockwise).
     #[serde(default)]
     pub shear: BTreeMap<String, f64>,
+    /// Shear strain `gamma` each named straight wall imposes over the stage (rad), as the top
+    /// of a simple shear box: the walls across it (its span walls, a box's left and right)
+    /// turn by `gamma` about their pivots (a box's side walls: their bottom ends), clockwise
+    /// for a positive `gamma`, and the wall slides along itself (along its tangent, the
+    /// normal turned a quarter anticlockwise: +x for a box's top) so that its corners stay on
+    /// them: by its distance from the wall facing it times the change of `tan gamma`.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub shear_strain: BTreeMap<String, f64>,
+    /// Straight walls that glue the grains touching them when the stage starts (thesis 3.3.4:
+    /// the simple shear box, `f_gw` infinite and the grains glued so they cannot roll). A glued
+    /// grain moves with its wall as a part of it from then on.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub glue: Vec<String>,
     /// Load until the sample fails (`until_failure = true`): a load-controlled test that
     /// reaches collapse has no equilibrium beyond it, and a brittle sample pushed past its
     /// peak may snap back, off any quasi-static path from the last equilibrium; so an

@@ -522,6 +522,37 @@ fn stages(scene: &Scene, walls: &BTreeMap<String, WallControl>, p: &mut Problems
                 p.push(key, no_wall(name, walls));
             }
         }
+        let curved = |name: &str| {
+            scene.circles.iter().any(|c| c.name == name)
+                || scene.membranes.iter().any(|m| m.name == name)
+        };
+        for (name, &v) in &s.shear_strain {
+            let key = child_key(&format!("{at}.shear_strain"), name);
+            if !walls.contains_key(name) {
+                p.push(key, no_wall(name, walls));
+            } else if curved(name) {
+                p.push(
+                    key,
+                    format!("`{name}` is not a straight wall: only a straight wall shears a box"),
+                );
+            } else if p.finite(&key, v) && v.abs() >= 0.5 {
+                p.push(
+                    key,
+                    format!("must be below 0.5 in size (rad): the side walls turn by it, not {v}"),
+                );
+            }
+        }
+        for (k, name) in s.glue.iter().enumerate() {
+            let key = format!("{at}.glue[{k}]");
+            if !walls.contains_key(name) {
+                p.push(key, no_wall(name, walls));
+            } else if curved(name) {
+                p.push(
+                    key,
+                    format!("`{name}` is not a straight wall: grains are glued to straight walls"),
+                );
+            }
+        }
     }
     if scene.stages.is_empty() && scene.sample.is_none() {
         p.push(

@@ -4,7 +4,8 @@
 use crate::assembly::{contact_block, DofMap, Pattern};
 use crate::contact::{kinematics, Configuration, Contact, ContactLaw, Kinematics, SlipTangent};
 use crate::geometry::{
-    chains, extent_along, Chain, FriendSet, GrainSet, Membrane, MembraneShape, Pair, Side, WallSet,
+    chains, extent_along, rotate, Chain, FriendSet, GrainSet, Membrane, MembraneShape, Pair, Side,
+    WallSet,
 };
 use crate::simulation::MaterialModel;
 use crate::solver::stats::{secs, StageTimers};
@@ -19,6 +20,8 @@ pub struct LoadStep {
     pub normal_move: Vec<f64>,
     /// Move along each wall in this step (m).
     pub slide: Vec<f64>,
+    /// Turn of each straight wall about its pivot in this step (rad, anticlockwise).
+    pub turn: Vec<f64>,
     /// Stress on each wall at the end of this step (Pa) (stress-controlled walls).
     pub stress: Vec<f64>,
     /// Pressure on each membrane at the end of this step (Pa).
@@ -35,6 +38,7 @@ impl LoadStep {
         let half = LoadStep {
             normal_move: self.normal_move.iter().map(|m| 0.5 * m).collect(),
             slide: self.slide.iter().map(|m| 0.5 * m).collect(),
+            turn: self.turn.iter().map(|m| 0.5 * m).collect(),
             stress: mid(&self.stress, from_stress),
             pressure: mid(&self.pressure, from_pressure),
         };
@@ -245,46 +249,95 @@ pub struct IncrementEquations<'a> {
 }
 
 impl IncrementEquations<'_> {
-    /// Positions, rotations and wall lines for increment displacements `u`.
+    /// Wall lines, positions and rotations for increment displacements `u` (walls first: a
+    /// glued grain goes where its wall takes it).
     pub fn configure(&mut self, u: &[f64]) {
-        for i in 0..self.grains.len() {
-            self.configure_grain(i, u);
-        }
         for w in 0..self.walls.len() {
             self.configure_wall(w, u);
         }
+        for i in 0..self.grains.len() {
+            self.configure_grain(i, u);
+        }
     }
 
-    /// Grain `i`'s position and rotation for increment displacements `u`.
+    /// Grain `i`'s position and rotation for increment displacements `u`: its own, or, glued,
+    /// its wall's: the wall's slide and its turn about its pivot carry it, and the normal
+    /// moves of the walls it follows ([`crate::assembly::Glue`]) with their weights.
     pub fn configure_grain(&mut self, i: usize, u: &[f64]) {
         let per = self.dofs.per_grain;
-        let b = i * per;
-        let d = [u[b], u[b + 1]];
+        let (d, rotation) = match self.dofs.glue[i] {
+            Some(glue) => {
+                let wall = &self.walls.walls[glue.wall];
+                let (s, t, turn) = (
+                    self.step.slide[glue.wall],
+                    wall.tangent(),
+                    self.step.turn[glue.wall],
+                );
+                let (o, g, p) = (
+                    self.grains.origin[i],
+                    self.grains.displacement[i],
+                    wall.pivot_at(wall.position),
+                );
+                let from_pivot = [(o[0] - p[0]) + g[0], (o[1] - p[1]) + g[1]];
+                let turned = rotate(from_pivot, turn);
+                let mut d = [
+                    s * t[0] + (turned[0] - from_pivot[0]),
+                    s * t[1] + (turned[1] - from_pivot[1]),
+                ];
+                for &(w, v) in glue.follows.iter().flatten() {
+                    let m = self.normal_move(w, u);
+                    d = [d[0] + m * v[0], d[1] + m * v[1]];
+                }
+                (d, turn)
+            }
+            None => {
+                let b = i * per;
+                ([u[b], u[b + 1]], if per == 3 { u[b + 2] } else { 0.0 })
+            }
+        };
         let p = self.grains.position[i];
         self.q.position[i] = [p[0] + d[0], p[1] + d[1]];
         self.q.displacement[i] = d;
-        self.q.rotation[i] = if per == 3 { u[b + 2] } else { 0.0 };
+        self.q.rotation[i] = rotation;
+    }
+
+    /// Wall `w`'s move into the sample in this step: its own unknown, or the step's move.
+    fn normal_move(&self, w: usize, u: &[f64]) -> f64 {
+        match self.dofs.wall[w] {
+            Some(dof) => u[dof],
+            None => self.step.normal_move[w],
+        }
+    }
+
+    /// How straight wall `w` moves in this step for increment displacements `u`: the
+    /// translation of its line (along its starting normal and tangent), then the turn about
+    /// its pivot so moved.
+    fn wall_motion(&self, w: usize, u: &[f64]) -> ([f64; 2], f64) {
+        let wall = &self.walls.walls[w];
+        let (normal_move, s, t) = (self.normal_move(w, u), self.step.slide[w], wall.tangent());
+        (
+            [
+                normal_move * wall.normal[0] + s * t[0],
+                normal_move * wall.normal[1] + s * t[1],
+            ],
+            self.step.turn[w],
+        )
     }
 
     /// Wall `w`'s line for increment displacements `u` (its own unknown, or the step's move).
     pub fn configure_wall(&mut self, w: usize, u: &[f64]) {
         let wall = &self.walls.walls[w];
-        let normal_move = match self.dofs.wall[w] {
-            Some(dof) => u[dof],
-            None => self.step.normal_move[w],
-        };
-        let t = wall.tangent();
-        let s = self.step.slide[w];
+        let normal_move = self.normal_move(w, u);
         self.q.wall_line[w] = wall.surface(wall.position + normal_move);
         self.q.wall_position[w] = wall.position + normal_move;
         // A growing circle's centre stays, a moving plug's goes along its direction; a line
-        // moves along its normal and along itself.
-        self.q.wall_displacement[w] = match wall.circle {
-            Some(c) => c.moves.map_or([0.0; 2], |m| m.map(|v| normal_move * v)),
-            None => [
-                normal_move * wall.normal[0] + s * t[0],
-                normal_move * wall.normal[1] + s * t[1],
-            ],
+        // moves along its normal and along itself, and turns.
+        (self.q.wall_displacement[w], self.q.wall_turn[w]) = match wall.circle {
+            Some(c) => (
+                c.moves.map_or([0.0; 2], |m| m.map(|v| normal_move * v)),
+                0.0,
+            ),
+            None => self.wall_motion(w, u),
         };
     }
 
@@ -301,10 +354,30 @@ impl IncrementEquations<'_> {
         Ok(())
     }
 
-    /// Kinematics and the return map of contact `idx` in the current configuration.
+    /// Whether contact `idx` is part of a wall's glue: a glued grain's contact with its wall
+    /// or with another grain glued to the same wall. The wall sets where such grains go (it
+    /// stretches with the box, see [`crate::assembly::Glue`]), so the contact carries
+    /// nothing that changes: a chain of glued grains along a side that the top's move
+    /// compressed would otherwise carry load past the sample.
+    pub fn is_glue(&self, idx: usize) -> bool {
+        let c = &self.contacts[idx];
+        let wall_of = |g: usize| self.dofs.glue[g].map(|glue| glue.wall);
+        let a = match c.pair.a {
+            Side::Wall(w) => Some(w),
+            Side::Grain(a) => wall_of(a),
+        };
+        a.is_some() && a == wall_of(c.pair.b)
+    }
+
+    /// Kinematics and the return map of contact `idx` in the current configuration (a glue
+    /// contact keeps the response it was glued with).
     pub fn respond(&mut self, idx: usize) -> Result<Kinematics, NumericError> {
+        let glue = self.is_glue(idx);
         let c = &mut self.contacts[idx];
         let k = kinematics(c.pair, self.grains, self.walls, self.q);
+        if glue {
+            return Ok(k);
+        }
         c.overlap = k.overlap;
         c.shear_increment = k.shear_increment - c.shear_offset;
         c.response = self.law.respond(
@@ -597,6 +670,9 @@ impl Equations for IncrementEquations<'_> {
         let start = Instant::now();
         let mut sum_fn = 0.0;
         for (idx, c) in self.contacts.iter().enumerate() {
+            if self.is_glue(idx) {
+                continue;
+            }
             sum_fn += c.response.normal_force.abs();
             let p = self.pair_index[idx];
             let map = self.dofs.pair_map(c.pair, self.push_direction(c.pair, idx));
@@ -614,7 +690,15 @@ impl Equations for IncrementEquations<'_> {
             }
         }
         self.membrane_loads(residual, tangent.as_deref_mut());
-        self.anchor_springs(u, residual, tangent);
+        self.anchor_springs(u, residual, tangent.as_deref_mut());
+        // A glued grain's own unknowns: springs of a contact's stiffness hold them at zero.
+        for dof in (0..self.dofs.len).filter(|&dof| self.dofs.held(dof)) {
+            let k = self.stiffness_hint * self.unit_stiffness(dof);
+            residual[dof] -= k * u[dof];
+            if let Some(t) = tangent.as_deref_mut() {
+                t[self.pattern.diagonal[dof]] += k;
+            }
+        }
         // Force scale: the mean contact force, or, while contacts carry (almost) nothing, the
         // wall loads shared over the grains touching the loaded walls.
         let n_c = self.contacts.len().max(1) as f64;

@@ -12,7 +12,7 @@ use crate::assembly::{DofMap, Pattern};
 use crate::contact::{
     kinematics, BrokenBond, Configuration, Contact, ContactLaw, ContactSet, Kinematics, SlipTangent,
 };
-use crate::geometry::{chains, Chain, FriendSet, GrainSet, Pair, WallControl, WallSet};
+use crate::geometry::{chains, Chain, FriendSet, GrainSet, Pair, Side, WallControl, WallSet};
 use crate::measure::{measure, Measurements, MembraneBoundary, Region};
 use crate::solver::dynamic::{self, SettleSettings};
 use crate::solver::newton::{self, NewtonOutcome, NewtonSettings, SystemMatrix};
@@ -141,7 +141,12 @@ impl Simulation {
     ) -> Result<Simulation, NumericError> {
         let law = material.law();
         let r_mean = state.grains.mean_radius();
-        let dofs = DofMap::new(state.grains.len(), material.fixed_rotations, &state.walls);
+        let dofs = DofMap::new(
+            state.grains.len(),
+            material.fixed_rotations,
+            &state.walls,
+            &state.contacts.glued(state.grains.len()),
+        );
         // The friends lists as they were when last made, so the pattern is the same.
         let mut at_reference = state.grains.clone();
         at_reference.position.clone_from(&state.friends_reference);
@@ -240,9 +245,10 @@ impl Simulation {
             stage: self.state.stage,
             ..Default::default()
         };
-        // The walls' controls of this stage, then the increment: the wall moves and stresses
-        // of the next step of the stage.
+        // The walls' controls and glue of this stage, then the increment: the wall moves and
+        // stresses of the next step of the stage.
         self.apply_stage_controls()?;
+        self.apply_glue()?;
         let step = self.next_load_step();
         // Solve: Newton + return map + topology, with cut-back.
         self.advance(&step, 0, &mut report)?;
@@ -282,22 +288,73 @@ impl Simulation {
             self.state.grains.len(),
             self.material.fixed_rotations,
             &self.state.walls,
+            &self.state.contacts.glued(self.state.grains.len()),
         );
         self.linear.invalidate();
         self.install_pattern()
     }
 
-    /// The next increment of the current stage: equal wall moves, and stresses moving in equal
-    /// steps from where they are to the stage's targets.
+    /// At the start of a stage that glues walls: every grain then touching one of them (and
+    /// glued to none yet) is glued to it, its contact with the wall bonded. From then on the
+    /// grain moves with the wall as a part of it (see [`DofMap`]): the thesis's simple shear
+    /// box, whose grains may neither slide nor roll on the walls (3.3.4). Tying the grain's
+    /// motion to the wall's is the exact form of that condition: infinite friction alone
+    /// leaves a grain free to roll about its contact point, and a bond with a spring against
+    /// rolling would let it turn by its moment over that spring's stiffness. A resumed run
+    /// finds the glue in the bonds it reads back, and meeting the stage's start again glues
+    /// the same grains.
+    fn apply_glue(&mut self) -> Result<(), NumericError> {
+        let glue = &self.stages[self.state.stage].glue;
+        if self.state.stage_increment != 0 || !glue.contains(&true) {
+            return Ok(());
+        }
+        let mut glued = self.state.contacts.glued(self.state.grains.len());
+        for c in &mut self.state.contacts.contacts {
+            if let Side::Wall(w) = c.pair.a {
+                if glue[w] && c.overlap >= 0.0 && glued[c.pair.b].is_none() {
+                    c.bonded = true;
+                    glued[c.pair.b] = Some(w);
+                }
+            }
+        }
+        self.dofs = DofMap::new(
+            self.state.grains.len(),
+            self.material.fixed_rotations,
+            &self.state.walls,
+            &glued,
+        );
+        self.linear.invalidate();
+        self.install_pattern()
+    }
+
+    /// The next increment of the current stage: equal wall moves, stresses moving in equal
+    /// steps from where they are to the stage's targets, and equal steps of shear strain: the
+    /// walls across a sheared wall turn by the step (clockwise for a positive strain), and the
+    /// sheared wall slides by its distance from the wall facing it times the change of
+    /// `tan gamma`, so its corners stay on them (as far as that distance stays the same).
     fn next_load_step(&self) -> LoadStep {
         let stage = &self.stages[self.state.stage];
         let left = (stage.increments - self.state.stage_increment) as f64;
         let n = stage.increments as f64;
-        let walls = &self.state.walls.walls;
+        let walls = &self.state.walls;
+        let mut slide: Vec<f64> = stage.slide.iter().map(|m| m / n).collect();
+        let mut turn = vec![0.0; walls.len()];
+        for (w, &gamma) in stage.shear_strain.iter().enumerate() {
+            let (Some((a, b)), Some(facing)) = (walls.span_walls(w), walls.facing(w)) else {
+                continue;
+            };
+            let step = gamma / n;
+            let before = -walls.walls[a].turn;
+            turn[a] -= step;
+            turn[b] -= step;
+            slide[w] += walls.gap(w, facing) * ((before + step).tan() - before.tan());
+        }
         LoadStep {
             normal_move: stage.normal_move.iter().map(|m| m / n).collect(),
-            slide: stage.slide.iter().map(|m| m / n).collect(),
+            slide,
+            turn,
             stress: walls
+                .walls
                 .iter()
                 .zip(&stage.stress)
                 .map(|(w, target)| match target {
@@ -504,6 +561,9 @@ impl Simulation {
     }
 
     fn equations<'a>(&'a mut self, step: &'a LoadStep) -> IncrementEquations<'a> {
+        // Glued grains follow their walls with the weights of this step.
+        self.dofs
+            .follow(&self.state.grains, &self.state.walls, &step.turn);
         IncrementEquations {
             grains: &self.state.grains,
             walls: &self.state.walls,
@@ -645,6 +705,7 @@ impl Simulation {
                 self.state.grains.len(),
                 self.material.fixed_rotations,
                 &walls,
+                &self.state.contacts.glued(self.state.grains.len()),
             );
             let links: Vec<(usize, usize)> = self.chains.iter().flat_map(Chain::links).collect();
             let pattern = Arc::new(Pattern::build(&self.friends, &dofs, &walls, &links));
@@ -659,6 +720,9 @@ impl Simulation {
             });
         }
         let mut freed = self.freed.take()?;
+        freed
+            .dofs
+            .follow(&self.state.grains, &self.state.walls, &step.turn);
         // The walls' unknowns at where the step took them.
         let mut u_freed = vec![0.0; freed.dofs.len];
         let grain_unknowns = freed.dofs.grains * freed.dofs.per_grain;
@@ -821,7 +885,14 @@ impl Simulation {
         self.stats.timers.topology += secs(start);
         // After a step that stopped short of the lists' reach, or anything further.
         let reach = 0.5 * self.friends.skin * REACH_REBUILD;
-        if self.friends.drift(&self.q.position, &wall_position) > reach {
+        let wall_turn: Vec<f64> = (self.state.walls.walls.iter().zip(&step.turn))
+            .map(|(w, t)| w.turn + t)
+            .collect();
+        if self
+            .friends
+            .drift(&self.q.position, &wall_position, &wall_turn)
+            > reach
+        {
             // Copies of grains and walls where they are now, made only for a rebuild.
             let mut current = self.state.grains.clone();
             current.position.clone_from(&self.q.position);
@@ -829,6 +900,7 @@ impl Simulation {
             for (w, wall) in walls_now.walls.iter_mut().enumerate() {
                 wall.position = wall_position[w];
                 wall.slide += step.slide[w];
+                wall.turn = wall_turn[w];
             }
             self.rebuild_friends(&current, &walls_now)?;
         }
@@ -973,6 +1045,13 @@ impl Simulation {
                     .iter()
                     .map(|w| w.position)
                     .collect::<Vec<_>>(),
+                &self
+                    .state
+                    .walls
+                    .walls
+                    .iter()
+                    .map(|w| w.turn)
+                    .collect::<Vec<_>>(),
             )
         {
             let (g, w) = (self.state.grains.clone(), self.state.walls.clone());
@@ -1012,6 +1091,7 @@ impl Simulation {
                 None => step.normal_move[w],
             };
             wall.slide += step.slide[w];
+            wall.turn += step.turn[w];
             if wall.control == WallControl::Stress {
                 wall.stress = step.stress[w];
             }
@@ -1044,6 +1124,7 @@ impl Simulation {
         let step = LoadStep {
             normal_move: vec![0.0; self.state.walls.len()],
             slide: vec![0.0; self.state.walls.len()],
+            turn: vec![0.0; self.state.walls.len()],
             stress: self.state.walls.walls.iter().map(|w| w.stress).collect(),
             pressure: self.state.membranes.iter().map(|m| m.pressure).collect(),
         };
@@ -1130,6 +1211,7 @@ mod tests {
             ..SolverConfig::default()
         };
         let mut sim = Simulation::new(scene, grains, config, "t").unwrap();
+        sim.apply_glue().unwrap();
         let step = sim.next_load_step();
         let n = sim.dofs.len;
         let r = sim.r_mean;
@@ -1221,5 +1303,19 @@ mod tests {
         scene.stages[0].stress.insert("punch".into(), 2e5);
         let e = tangent_error(&scene, LinearKind::Lu, SlipTangent::Consistent);
         assert!(e < 1e-5, "moving plug: relative error {e:e}");
+        // A simple shear box: the grains on its four walls glued, its top, left and right
+        // stress-controlled, the top sliding and the sides turning in the step.
+        let mut scene = samples::hertz_patch(6, 5, 1, 0.6, 0.1, 0);
+        let b = scene.wall_box.as_mut().expect("a box");
+        b.friction = crate::scene::Friction::Coefficient(0.5);
+        b.stress_controlled.push("left".into());
+        let stage = &mut scene.stages[0];
+        stage.stress.insert("left".into(), 1e5);
+        stage.glue = ["bottom", "right", "top", "left"]
+            .map(String::from)
+            .to_vec();
+        stage.shear_strain.insert("top".into(), 0.05);
+        let e = tangent_error(&scene, LinearKind::Lu, SlipTangent::Consistent);
+        assert!(e < 1e-5, "shear box: relative error {e:e}");
     }
 }

@@ -264,8 +264,8 @@ impl BlockEquations for GrainByGrain<'_> {
                 -k.radius_b,
             ];
             let mut shear = [0.0; 3];
-            for (entry, feed) in map.feeds.iter().enumerate() {
-                if let Some((slot, weight)) = *feed {
+            for (entry, feeds) in map.feeds.iter().enumerate() {
+                for &(slot, weight) in feeds.iter().flatten() {
                     if let Some(l) = local(map.dofs[slot]) {
                         shear[l] += weight * bt[entry];
                     }

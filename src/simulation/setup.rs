@@ -11,7 +11,7 @@ use crate::geometry::{
 };
 use crate::measure::Region;
 use crate::scene::{CircleSide, CohesionRadius, LawKind, Scene};
-use crate::solver::SolverConfig;
+use crate::solver::{SolverConfig, Strategy};
 use crate::state::State;
 use crate::{Error, InputError};
 
@@ -157,6 +157,11 @@ pub struct StageProgram {
     pub normal_move: Vec<f64>,
     /// Move along each wall over the stage (m).
     pub slide: Vec<f64>,
+    /// Shear strain each wall imposes over the stage, as the top of a shear box (see
+    /// [`crate::scene::Stage::shear_strain`]).
+    pub shear_strain: Vec<f64>,
+    /// The walls that glue the grains touching them when the stage starts.
+    pub glue: Vec<bool>,
     /// Pressure each membrane reaches at the end of the stage (`None`: unchanged).
     pub pressure: Vec<Option<f64>>,
     /// Control of each wall during the stage: the scene's, as the stages so far changed it
@@ -188,6 +193,8 @@ pub fn build_walls(scene: &Scene, grains: &GrainSet) -> WallSet {
                 name: name.into(),
                 normal,
                 offset: normal[0] * point[0] + normal[1] * point[1],
+                pivot: point,
+                turn: 0.0,
                 position: 0.0,
                 slide: 0.0,
                 control: if stress_side {
@@ -209,6 +216,8 @@ pub fn build_walls(scene: &Scene, grains: &GrainSet) -> WallSet {
             name: spec.name.clone(),
             normal,
             offset: normal[0] * spec.point[0] + normal[1] * spec.point[1],
+            pivot: spec.point,
+            turn: 0.0,
             position: 0.0,
             slide: 0.0,
             control: spec.control,
@@ -227,6 +236,8 @@ pub fn build_walls(scene: &Scene, grains: &GrainSet) -> WallSet {
             name: spec.name.clone(),
             normal: [0.0; 2],
             offset: 0.0,
+            pivot: spec.center,
+            turn: 0.0,
             position: 0.0,
             slide: 0.0,
             control: spec.control,
@@ -246,6 +257,56 @@ pub fn build_walls(scene: &Scene, grains: &GrainSet) -> WallSet {
         });
     }
     WallSet { walls }
+}
+
+/// The walls a stage shears and glues must make a shear box the solver can move: a wall
+/// sheared needs a wall facing it and two walls across it (its span walls), and those must
+/// turn about points on the facing wall, which stays where it is; the grain-by-grain solver
+/// does not move glued grains with their walls.
+fn check_shear_boxes(
+    scene: &Scene,
+    walls: &WallSet,
+    strategy: Strategy,
+    file: &str,
+) -> Result<(), Error> {
+    for (i, stage) in scene.stages.iter().enumerate() {
+        for name in stage.shear_strain.keys() {
+            let key = crate::scene::child_key(&format!("stages[{i}].shear_strain"), name);
+            let bad =
+                |message: String| Err(InputError::new(file, message).at_key(key.clone()).into());
+            let Some(w) = walls.walls.iter().position(|x| &x.name == name) else {
+                continue;
+            };
+            let (Some(facing), Some((a, b))) = (walls.facing(w), walls.span_walls(w)) else {
+                return bad(format!(
+                    "wall `{name}` needs a wall facing it and two walls across it to shear a box"
+                ));
+            };
+            let bottom = &walls.walls[facing];
+            for side in [a, b] {
+                let pivot = walls.walls[side].pivot;
+                let off = bottom.normal[0] * pivot[0] + bottom.normal[1] * pivot[1] - bottom.offset;
+                if off.abs() > 1e-9 * walls.gap(w, facing).abs() {
+                    return bad(format!(
+                        "wall `{}` turns about a point {off:e} m off wall `{}`, which faces \
+                         `{name}`: the walls across a sheared wall turn about points on the \
+                         wall facing it (a box's side walls: their bottom ends)",
+                        walls.walls[side].name, bottom.name
+                    ));
+                }
+            }
+        }
+        if !stage.glue.is_empty() && strategy == Strategy::Relaxation {
+            return Err(InputError::new(
+                file,
+                "the grain-by-grain solver does not move glued grains with their walls: use \
+                 the global solver",
+            )
+            .at_key(format!("stages[{i}].glue"))
+            .into());
+        }
+    }
+    Ok(())
 }
 
 /// The centre of a plug of `radius` brought from `center` along the unit direction `moves`
@@ -313,6 +374,8 @@ pub fn build_stages(scene: &Scene, walls: &WallSet, membranes: &[Membrane]) -> V
                 stress: vec![None; walls.len()],
                 normal_move: vec![0.0; walls.len()],
                 slide: vec![0.0; walls.len()],
+                shear_strain: vec![0.0; walls.len()],
+                glue: vec![false; walls.len()],
                 pressure: vec![None; membranes.len()],
                 control: control.clone(),
                 until_failure: s.until_failure,
@@ -333,6 +396,16 @@ pub fn build_stages(scene: &Scene, walls: &WallSet, membranes: &[Membrane]) -> V
             for (name, v) in &s.shear {
                 if let Some(w) = index(name) {
                     stage.slide[w] = *v;
+                }
+            }
+            for (name, v) in &s.shear_strain {
+                if let Some(w) = index(name) {
+                    stage.shear_strain[w] = *v;
+                }
+            }
+            for name in &s.glue {
+                if let Some(w) = index(name) {
+                    stage.glue[w] = true;
                 }
             }
             stage
@@ -397,7 +470,7 @@ impl Simulation {
         {
             return Err(InputError::new(file, message).at_key(key).into());
         }
-        Simulation::of_scene(scene, config, grains, walls, contacts)
+        Simulation::of_scene(scene, config, grains, walls, contacts, file)
     }
 
     /// The simulation of `scene` on these grains, walls and contacts: the scene's depth,
@@ -408,6 +481,7 @@ impl Simulation {
         grains: GrainSet,
         walls: WallSet,
         contacts: ContactSet,
+        file: &str,
     ) -> Result<Simulation, Error> {
         let depth = scene
             .material
@@ -415,6 +489,7 @@ impl Simulation {
             .unwrap_or_else(|| 2.0 * grains.mean_radius());
         let membranes = build_membranes(scene);
         let stages = build_stages(scene, &walls, &membranes);
+        check_shear_boxes(scene, &walls, config.strategy, file)?;
         let state = State::fresh(grains, walls, contacts, membranes);
         let material = MaterialModel::from_scene(scene);
         let mut sim =
@@ -518,7 +593,7 @@ impl Simulation {
             contacts,
             broken_bonds: Vec::new(),
         };
-        let mut sim = Simulation::of_scene(scene, config, grains, walls, contacts)?;
+        let mut sim = Simulation::of_scene(scene, config, grains, walls, contacts, file)?;
         // The responses of the committed state, for what is measured before the first step.
         sim.equilibrium_error();
         Ok(sim)

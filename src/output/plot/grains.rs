@@ -404,8 +404,8 @@ fn touch_point(wall: &Wall, p: [f64; 2]) -> [f64; 2] {
             ]
         }
         None => {
-            let d = wall.distance(p);
-            [p[0] - d * wall.normal[0], p[1] - d * wall.normal[1]]
+            let (d, n) = (wall.distance(p), wall.current_normal());
+            [p[0] - d * n[0], p[1] - d * n[1]]
         }
     }
 }
@@ -425,7 +425,7 @@ fn wall_line(wall: &Wall, lo: [f64; 2], hi: [f64; 2]) -> Vec<[f64; 2]> {
                 .collect()
         }
         None => {
-            let n = wall.normal;
+            let (n, surface) = (wall.current_normal(), wall.line_constant());
             if n[1].abs() > n[0].abs() {
                 [lo[0], hi[0]]
                     .iter()

@@ -309,7 +309,85 @@ fn curve_charts(
             ),
         ));
     }
+    charts.extend(shear_charts(scene, &curves.shear));
     charts
+}
+
+/// The simple shear charts against the shear strain: shear and normal stresses on the walls
+/// and in the regions, the regions' principal direction and friction angle, and their grain
+/// rotation over the walls'. None when no wall turned.
+fn shear_charts(scene: &str, shear: &[Curve]) -> Vec<(&'static str, LineChart)> {
+    let Some((gamma, rest)) = shear.split_first() else {
+        return Vec::new();
+    };
+    let x_label = format!("{} [%]", gamma.label);
+    let kind = |c: &Curve| c.key.split(':').next().unwrap_or_default().to_owned();
+    let series = |kinds: &[&str], factor: f64| -> Vec<Series> {
+        let picked: Vec<&Curve> = rest
+            .iter()
+            .filter(|c| kinds.contains(&kind(c).as_str()))
+            .collect();
+        picked
+            .iter()
+            .enumerate()
+            .map(|(k, c)| Series {
+                label: c.label.clone(),
+                points: gamma
+                    .values
+                    .iter()
+                    .zip(&c.values)
+                    .map(|(g, v)| (100.0 * g, v * factor))
+                    .collect(),
+                colour: PALETTE[k % PALETTE.len()],
+                dashed: c.from_contacts,
+            })
+            .collect()
+    };
+    let chart = |title: &str, y_label: String, y_from_zero: bool, series: Vec<Series>| LineChart {
+        title: format!("{scene}: {title}"),
+        x_label: x_label.clone(),
+        y_label,
+        y_from_zero,
+        series,
+    };
+    let stresses = ["tau_walls", "sigma_xx", "sigma_yy", "tau"];
+    let unit = si_unit(
+        max_abs(
+            rest.iter()
+                .filter(|c| stresses.contains(&kind(c).as_str()))
+                .flat_map(|c| c.values.iter()),
+        ),
+        "Pa",
+    );
+    vec![
+        (
+            "shear-stress",
+            chart(
+                "stresses (solid: on the walls, dashed: in the regions)",
+                format!("stress [{}], compression positive", unit.unit),
+                true,
+                series(&stresses, unit.factor),
+            ),
+        ),
+        (
+            "principal-direction",
+            chart(
+                "major principal direction β and friction angle φ' (eq. A.25)",
+                "angle [°]".into(),
+                true,
+                series(&["beta", "phi"], 1.0),
+            ),
+        ),
+        (
+            "grain-rotation",
+            chart(
+                "mean grain rotation over the walls' (eq. 30)",
+                "γ_μ / γ [-]".into(),
+                false,
+                series(&["rotation_ratio"], 1.0),
+            ),
+        ),
+    ]
 }
 
 /// A stress curve's colour: one per quantity, shared by its wall and contact versions.
