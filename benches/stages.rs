@@ -81,6 +81,7 @@ fn stages(c: &mut Criterion) {
         let anchors = anchors(&state.grains, &state.walls, &state.contacts.contacts);
         let mut q = Configuration::at_rest(&state.grains, &state.walls);
         let mut kin = Vec::new();
+        let mut blocks = Vec::new();
         let mut chains = Vec::new();
         let u = vec![0.0; dofs.len];
         let mut residual = vec![0.0; dofs.len];
@@ -108,6 +109,7 @@ fn stages(c: &mut Criterion) {
             r_mean,
             q: &mut q,
             kin: &mut kin,
+            blocks: &mut blocks,
             timers: StageTimers::default(),
             f_ref: 0.0,
             stiffness_hint: material.stiffness_hint(r_mean),

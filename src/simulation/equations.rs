@@ -1,11 +1,12 @@
 //! The equilibrium equations of one load increment: residual `R = f_ext + f_contact` on every
 //! unknown, and the tangent `K = -dR/du`, assembled into the fixed pattern.
 
-use crate::assembly::{contact_block, DofMap, Pattern};
+use crate::assembly::{contact_block, DofMap, LocalBlock, Pattern};
 use crate::contact::{kinematics, Configuration, Contact, ContactLaw, Kinematics, SlipTangent};
 use crate::geometry::{
     chains, extent_along, Chain, FriendSet, GrainSet, Membrane, MembraneShape, Pair, Side, WallSet,
 };
+use crate::parallel;
 use crate::simulation::MaterialModel;
 use crate::solver::stats::{secs, StageTimers};
 use crate::solver::Equations;
@@ -232,6 +233,8 @@ pub struct IncrementEquations<'a> {
     pub q: &'a mut Configuration,
     /// Contact kinematics (workspace).
     pub kin: &'a mut Vec<Kinematics>,
+    /// Each contact's force and stiffness on its unknowns (workspace).
+    pub blocks: &'a mut Vec<LocalBlock>,
     /// Time spent in the return map and in assembly by this set of equations.
     pub timers: StageTimers,
     /// Force scale of the last evaluation.
@@ -289,21 +292,26 @@ impl IncrementEquations<'_> {
     }
 
     /// Kinematics and the return map of every contact, in the configuration last set by
-    /// [`IncrementEquations::configure`].
+    /// [`IncrementEquations::configure`]: each contact on its own, shared over the threads.
     pub fn update_contacts(&mut self) -> Result<(), NumericError> {
         let start = Instant::now();
-        self.kin.clear();
-        for idx in 0..self.contacts.len() {
-            let k = self.respond(idx)?;
-            self.kin.push(k);
-        }
+        let (mut contacts, mut kin) = (std::mem::take(self.contacts), std::mem::take(self.kin));
+        parallel::map_mut_into(&mut contacts, &mut kin, |_, c| self.respond_to(c));
+        (*self.contacts, *self.kin) = (contacts, kin);
         self.timers.return_map += secs(start);
-        Ok(())
+        self.contacts.iter().try_for_each(finite)
     }
 
     /// Kinematics and the return map of contact `idx` in the current configuration.
     pub fn respond(&mut self, idx: usize) -> Result<Kinematics, NumericError> {
-        let c = &mut self.contacts[idx];
+        let mut contacts = std::mem::take(self.contacts);
+        let k = self.respond_to(&mut contacts[idx]);
+        *self.contacts = contacts;
+        finite(&self.contacts[idx]).map(|_| k)
+    }
+
+    /// Kinematics and the return map of contact `c` in the current configuration.
+    fn respond_to(&self, c: &mut Contact) -> Kinematics {
         let k = kinematics(c.pair, self.grains, self.walls, self.q);
         c.overlap = k.overlap;
         c.shear_increment = k.shear_increment - c.shear_offset;
@@ -332,13 +340,7 @@ impl IncrementEquations<'_> {
                 r.dfs_ds = r.dfs_ds.max(c.params.kappa * floor);
             }
         }
-        if !(c.response.normal_force.is_finite() && c.response.shear_force.is_finite()) {
-            return Err(NumericError::NotFinite {
-                what: "contact force",
-                place: format!("contact {:?}-{}", c.pair.a, c.pair.b),
-            });
-        }
-        Ok(k)
+        k
     }
 
     /// Membrane pressures on the chains' grains, and their tangent: a segment `e` from `a` to
@@ -424,11 +426,7 @@ impl IncrementEquations<'_> {
     /// The direction a wall's unknown moves its side of contact `idx` along (see
     /// [`crate::geometry::Wall::push_direction`]); unused for a grain pair.
     pub(super) fn push_direction(&self, pair: Pair, idx: usize) -> [f64; 2] {
-        let normal = self.kin[idx].normal;
-        match pair.a {
-            Side::Wall(w) => self.walls.walls[w].push_direction(normal),
-            Side::Grain(_) => normal,
-        }
+        push_direction(self.walls, pair, &self.kin[idx])
     }
 
     /// Current loaded length of wall `w`: fixed, a circle's circumference, or the gap between
@@ -444,6 +442,27 @@ impl IncrementEquations<'_> {
                 None => extent_along(&self.q.position, &self.grains.radius, wall.tangent()),
             },
         }
+    }
+}
+
+/// The direction a wall's unknown moves side `a` of `pair` along (see
+/// [`crate::geometry::Wall::push_direction`]); the normal for a grain pair, where it is unused.
+fn push_direction(walls: &WallSet, pair: Pair, kin: &Kinematics) -> [f64; 2] {
+    match pair.a {
+        Side::Wall(w) => walls.walls[w].push_direction(kin.normal),
+        Side::Grain(_) => kin.normal,
+    }
+}
+
+/// An error naming contact `c` if its forces are not finite.
+fn finite(c: &Contact) -> Result<(), NumericError> {
+    if c.response.normal_force.is_finite() && c.response.shear_force.is_finite() {
+        Ok(())
+    } else {
+        Err(NumericError::NotFinite {
+            what: "contact force",
+            place: format!("contact {:?}-{}", c.pair.a, c.pair.b),
+        })
     }
 }
 
@@ -595,24 +614,23 @@ impl Equations for IncrementEquations<'_> {
         self.load_scale = sum_ext / loaded;
         self.update_contacts()?;
         let start = Instant::now();
-        let mut sum_fn = 0.0;
-        for (idx, c) in self.contacts.iter().enumerate() {
-            sum_fn += c.response.normal_force.abs();
-            let p = self.pair_index[idx];
-            let map = self.dofs.pair_map(c.pair, self.push_direction(c.pair, idx));
-            let block = contact_block(&self.kin[idx], &c.response, &map, self.symmetric);
-            for a in 0..map.len {
-                residual[map.dofs[a]] += block.force[a];
-            }
-            if let Some(t) = tangent.as_deref_mut() {
-                let slots = self.pattern.pair_slots(p);
-                for a in 0..map.len {
-                    for b in 0..map.len {
-                        t[slots[a * map.len + b]] += block.stiffness[a][b];
-                    }
-                }
-            }
-        }
+        let sum_fn = self
+            .contacts
+            .iter()
+            .fold(0.0, |sum, c| sum + c.response.normal_force.abs());
+        // Each contact's block on its own, shared over the threads, then summed into the
+        // residual and the pattern in the contacts' order.
+        let (walls, dofs, kin, symmetric) = (self.walls, self.dofs, &*self.kin, self.symmetric);
+        parallel::map_into(self.contacts, self.blocks, |idx, c| {
+            let map = dofs.pair_map(c.pair, push_direction(walls, c.pair, &kin[idx]));
+            contact_block(&kin[idx], &c.response, &map, symmetric)
+        });
+        self.pattern.scatter(
+            self.blocks,
+            self.pair_index,
+            residual,
+            tangent.as_deref_mut(),
+        );
         self.membrane_loads(residual, tangent.as_deref_mut());
         self.anchor_springs(u, residual, tangent);
         // Force scale: the mean contact force, or, while contacts carry (almost) nothing, the
