@@ -17,10 +17,6 @@ use crate::contact::{Kinematics, Response};
 /// A contact's force on, and stiffness of, the unknowns it touches.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct LocalBlock {
-    /// The reduced unknowns, the first `len` of them used ([`PairMap::dofs`]).
-    pub dofs: [usize; 6],
-    /// How many of `dofs` are used.
-    pub len: usize,
     /// Force on each reduced unknown.
     pub force: [f64; 6],
     /// Tangent `-df/dq`, row-major over the reduced unknowns.
@@ -71,11 +67,7 @@ pub fn contact_block(k: &Kinematics, r: &Response, map: &PairMap, symmetric: boo
         }
     }
 
-    let mut out = LocalBlock {
-        dofs: map.dofs,
-        len: map.len,
-        ..LocalBlock::default()
-    };
+    let mut out = LocalBlock::default();
     for (a, feed_a) in map.feeds.iter().enumerate() {
         let Some((ra, wa)) = *feed_a else {
             continue;

@@ -252,20 +252,23 @@ impl Pattern {
     }
 
     /// Add each contact's force to `residual` and its stiffness to `tangent` (this pattern's
-    /// values): `blocks[i]` is the block of friend pair `pair_index[i]`. The unknowns are
-    /// split into one range per thread, rows of the residual and columns of the tangent, and
-    /// each thread goes through all contacts in their order adding what falls in its range:
-    /// no two threads write one entry, and every entry is summed in the contacts' order
-    /// whatever the number of threads.
+    /// values), for contacts `0..pair_index.len()`: contact `i` is friend pair
+    /// `pair_index[i]`, touches the unknowns `map(i)` and has the block `block(i, &map(i))`.
+    /// The unknowns are split into one range per thread, rows of the residual and columns of
+    /// the tangent, and each thread goes through all contacts in their order, adding the
+    /// blocks of those that touch its range where they fall in it: no two threads write one
+    /// entry, and every entry is summed in the contacts' order whatever the number of
+    /// threads. A contact whose unknowns lie in two ranges has its block made in both.
     pub fn scatter(
         &self,
-        blocks: &[LocalBlock],
         pair_index: &[usize],
+        map: impl Fn(usize) -> PairMap + Sync,
+        block: impl Fn(usize, &PairMap) -> LocalBlock + Sync,
         residual: &mut [f64],
         tangent: Option<&mut [f64]>,
     ) {
         let col_ptr = self.symbolic.col_ptr();
-        let bounds = if parallel::worth_it(blocks.len()) {
+        let bounds = if parallel::worth_it(pair_index.len()) {
             // Shared by the entries of the tangent in each range, or by unknowns alone.
             match tangent {
                 Some(_) => parallel::split(residual.len(), |b| col_ptr[b]),
@@ -289,11 +292,13 @@ impl Pattern {
         let add =
             |(range, residual, mut values): (Range<usize>, &mut [f64], Option<&mut [f64]>)| {
                 let offset = col_ptr[range.start];
-                for (block, &p) in blocks.iter().zip(pair_index) {
-                    let dofs = &block.dofs[..block.len];
+                for (i, &p) in pair_index.iter().enumerate() {
+                    let map = map(i);
+                    let dofs = &map.dofs[..map.len];
                     if !dofs.iter().any(|d| range.contains(d)) {
                         continue;
                     }
+                    let block = block(i, &map);
                     for (a, &row) in dofs.iter().enumerate() {
                         if range.contains(&row) {
                             residual[row - range.start] += block.force[a];
@@ -301,9 +306,9 @@ impl Pattern {
                     }
                     if let Some(values) = values.as_deref_mut() {
                         let slots = self.pair_slots(p);
-                        for b in (0..block.len).filter(|&b| range.contains(&dofs[b])) {
-                            for (a, row) in block.stiffness.iter().take(block.len).enumerate() {
-                                values[slots[a * block.len + b] - offset] += row[b];
+                        for b in (0..map.len).filter(|&b| range.contains(&dofs[b])) {
+                            for (a, row) in block.stiffness.iter().take(map.len).enumerate() {
+                                values[slots[a * map.len + b] - offset] += row[b];
                             }
                         }
                     }

@@ -1,7 +1,7 @@
 //! The equilibrium equations of one load increment: residual `R = f_ext + f_contact` on every
 //! unknown, and the tangent `K = -dR/du`, assembled into the fixed pattern.
 
-use crate::assembly::{contact_block, DofMap, LocalBlock, Pattern};
+use crate::assembly::{contact_block, DofMap, Pattern};
 use crate::contact::{kinematics, Configuration, Contact, ContactLaw, Kinematics, SlipTangent};
 use crate::geometry::{
     chains, extent_along, Chain, FriendSet, GrainSet, Membrane, MembraneShape, Pair, Side, WallSet,
@@ -233,8 +233,6 @@ pub struct IncrementEquations<'a> {
     pub q: &'a mut Configuration,
     /// Contact kinematics (workspace).
     pub kin: &'a mut Vec<Kinematics>,
-    /// Each contact's force and stiffness on its unknowns (workspace).
-    pub blocks: &'a mut Vec<LocalBlock>,
     /// Time spent in the return map and in assembly by this set of equations.
     pub timers: StageTimers,
     /// Force scale of the last evaluation.
@@ -618,16 +616,18 @@ impl Equations for IncrementEquations<'_> {
             .contacts
             .iter()
             .fold(0.0, |sum, c| sum + c.response.normal_force.abs());
-        // Each contact's block on its own, shared over the threads, then summed into the
-        // residual and the pattern in the contacts' order.
-        let (walls, dofs, kin, symmetric) = (self.walls, self.dofs, &*self.kin, self.symmetric);
-        parallel::map_into(self.contacts, self.blocks, |idx, c| {
-            let map = dofs.pair_map(c.pair, push_direction(walls, c.pair, &kin[idx]));
-            contact_block(&kin[idx], &c.response, &map, symmetric)
-        });
+        // Each contact's block added in the contacts' order, on the threads' shares of the
+        // unknowns.
+        let (walls, dofs, kin, contacts) = (self.walls, self.dofs, &*self.kin, &*self.contacts);
         self.pattern.scatter(
-            self.blocks,
             self.pair_index,
+            |i| {
+                dofs.pair_map(
+                    contacts[i].pair,
+                    push_direction(walls, contacts[i].pair, &kin[i]),
+                )
+            },
+            |i, map| contact_block(&kin[i], &contacts[i].response, map, self.symmetric),
             residual,
             tangent.as_deref_mut(),
         );

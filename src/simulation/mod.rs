@@ -8,7 +8,7 @@ mod setup;
 pub use equations::{anchors, membrane_carriers, Anchor, IncrementEquations, LoadStep};
 pub use setup::{initial_contacts, MaterialModel, StageProgram};
 
-use crate::assembly::{DofMap, LocalBlock, Pattern};
+use crate::assembly::{DofMap, Pattern};
 use crate::contact::{
     kinematics, BrokenBond, Configuration, Contact, ContactLaw, ContactSet, Kinematics, SlipTangent,
 };
@@ -53,7 +53,6 @@ pub struct Simulation {
     linear: LinearSolver,
     q: Configuration,
     kin: Vec<Kinematics>,
-    blocks: Vec<LocalBlock>,
     pair_index: Vec<usize>,
     /// Each membrane's chain for the current increment.
     chains: Vec<Chain>,
@@ -179,7 +178,6 @@ impl Simulation {
             r_mean,
             q: Configuration::at_rest(&state.grains, &state.walls),
             kin: Vec::new(),
-            blocks: Vec::new(),
             pair_index: Vec::new(),
             chains,
             carriers,
@@ -522,7 +520,6 @@ impl Simulation {
             r_mean: self.r_mean,
             q: &mut self.q,
             kin: &mut self.kin,
-            blocks: &mut self.blocks,
             timers: StageTimers::default(),
             f_ref: 0.0,
             stiffness_hint: self.material.stiffness_hint(self.r_mean),
