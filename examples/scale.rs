@@ -33,11 +33,11 @@ fn main() {
     }
     if args.first().map(String::as_str) == Some("--one") {
         let grains = args.get(1).and_then(|n| n.parse().ok()).unwrap_or(1000);
-        rayon::ThreadPoolBuilder::new()
+        let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads.max(1))
-            .build_global()
+            .build()
             .expect("the thread pool");
-        let (size, stages) = measure(grains, threads);
+        let (size, stages) = pool.install(|| measure(grains, threads));
         println!("{size}\n{stages}");
         return;
     }
