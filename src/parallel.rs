@@ -18,41 +18,21 @@ pub fn worth_it(items: usize) -> bool {
     items >= MIN_ITEMS && rayon::current_num_threads() > 1
 }
 
-/// `f(i, &items[i])` for every item, into `out` in the items' order.
-pub fn map_into<T: Sync, U: Send>(
-    items: &[T],
-    out: &mut Vec<U>,
-    f: impl Fn(usize, &T) -> U + Sync + Send,
-) {
-    if worth_it(items.len()) {
-        items
-            .par_iter()
-            .enumerate()
-            .with_min_len(CHUNK)
-            .map(|(i, item)| f(i, item))
-            .collect_into_vec(out);
-    } else {
-        out.clear();
-        out.extend(items.iter().enumerate().map(|(i, item)| f(i, item)));
-    }
-}
-
-/// `f(i, &mut items[i])` for every item, its results into `out` in the items' order.
+/// `f(&mut item)` for every item, its results into `out` in the items' order.
 pub fn map_mut_into<T: Send, U: Send>(
     items: &mut [T],
     out: &mut Vec<U>,
-    f: impl Fn(usize, &mut T) -> U + Sync + Send,
+    f: impl Fn(&mut T) -> U + Sync + Send,
 ) {
     if worth_it(items.len()) {
         items
             .par_iter_mut()
-            .enumerate()
             .with_min_len(CHUNK)
-            .map(|(i, item)| f(i, item))
+            .map(f)
             .collect_into_vec(out);
     } else {
         out.clear();
-        out.extend(items.iter_mut().enumerate().map(|(i, item)| f(i, item)));
+        out.extend(items.iter_mut().map(f));
     }
 }
 
@@ -72,19 +52,12 @@ pub fn flat_map<U: Send, I: IntoIterator<Item = U>>(
     }
 }
 
-/// `f(i, &mut items[i])` for every item.
-pub fn for_each_mut<T: Send>(items: &mut [T], f: impl Fn(usize, &mut T) + Sync + Send) {
+/// `f(&mut item)` for every item.
+pub fn for_each_mut<T: Send>(items: &mut [T], f: impl Fn(&mut T) + Sync + Send) {
     if worth_it(items.len()) {
-        items
-            .par_iter_mut()
-            .enumerate()
-            .with_min_len(CHUNK)
-            .for_each(|(i, item)| f(i, item));
+        items.par_iter_mut().with_min_len(CHUNK).for_each(f);
     } else {
-        items
-            .iter_mut()
-            .enumerate()
-            .for_each(|(i, item)| f(i, item));
+        items.iter_mut().for_each(f);
     }
 }
 
@@ -141,9 +114,9 @@ mod tests {
             .num_threads(2)
             .build()
             .unwrap();
-        let items: Vec<usize> = (0..5000).collect();
+        let mut items: Vec<usize> = (0..5000).collect();
         let mut out = Vec::new();
-        pool.install(|| map_into(&items, &mut out, |i, &x| i + x));
+        pool.install(|| map_mut_into(&mut items, &mut out, |x| 2 * *x));
         assert!(out.iter().enumerate().all(|(i, &y)| y == 2 * i));
         let flat = pool.install(|| flat_map(5000, |i| [i; 2]));
         assert!(flat.chunks(2).enumerate().all(|(i, c)| c == [i, i]));

@@ -176,7 +176,7 @@ impl Pattern {
                 }
             }
         }
-        parallel::for_each_mut(&mut columns, |_, col| {
+        parallel::for_each_mut(&mut columns, |col| {
             col.sort_unstable();
             col.dedup();
         });

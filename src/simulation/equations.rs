@@ -294,7 +294,7 @@ impl IncrementEquations<'_> {
     pub fn update_contacts(&mut self) -> Result<(), NumericError> {
         let start = Instant::now();
         let (mut contacts, mut kin) = (std::mem::take(self.contacts), std::mem::take(self.kin));
-        parallel::map_mut_into(&mut contacts, &mut kin, |_, c| self.respond_to(c));
+        parallel::map_mut_into(&mut contacts, &mut kin, |c| self.respond_to(c));
         (*self.contacts, *self.kin) = (contacts, kin);
         self.timers.return_map += secs(start);
         self.contacts.iter().try_for_each(finite)
