@@ -1,6 +1,8 @@
-//! The stages of a load increment by sample size: friends lists and pattern build, assembly
-//! of residual and tangent, numeric Cholesky factorisation, and one whole increment by the
-//! global solver and by the relaxation (20 sweeps, the thesis's n_i).
+//! The stages of a load increment by sample size and number of threads: friends lists,
+//! pattern build, the return map, residual and tangent (the return map and the assembly),
+//! numeric Cholesky factorisation, and one whole increment by the global solver; and one
+//! increment by the relaxation (20 sweeps, the thesis's n_i), which goes grain by grain on one
+//! thread.
 //!
 //! The samples are hexagonal crystals of the sandstone of table 8 between four walls
 //! (`samples::crystal_biaxial`), at about 1,000, 10,000 and 100,000 grains: built in
@@ -13,6 +15,7 @@
 //! into subnormal numbers).
 //!
 //!     cargo bench --bench stages
+//!     cargo bench --bench stages -- "/10000"     # one size
 
 use criterion::{criterion_group, criterion_main, BatchSize, BenchmarkId, Criterion};
 use faer::sparse::SparseColMatRef;
@@ -24,10 +27,14 @@ use grainstat::scene::{build_grains, Scene};
 use grainstat::simulation::{anchors, IncrementEquations, LoadStep, Simulation};
 use grainstat::solver::stats::StageTimers;
 use grainstat::solver::{Equations, LinearSolver, SolverConfig, SolverStats, Strategy};
+use rayon::{ThreadPool, ThreadPoolBuilder};
 use std::path::Path;
 
 /// Crystals of about 1,000, 10,000 and 100,000 grains: (grains, rows, columns).
 const SIZES: [(usize, usize, usize); 3] = [(1_000, 41, 25), (10_000, 129, 78), (100_000, 401, 250)];
+
+/// The numbers of threads each stage runs on.
+const THREADS: [usize; 2] = [1, 2];
 
 fn scene(rows: usize, columns: usize) -> Scene {
     samples::crystal_biaxial(rows, columns, 1e6, 3e6)
@@ -54,13 +61,33 @@ fn stages(c: &mut Criterion) {
         let scene = scene(rows, columns);
         let config = SolverConfig::default();
         let mut sim = simulation(&scene, config.clone());
+        let pools: Vec<(usize, ThreadPool)> = THREADS
+            .iter()
+            .map(|&n| {
+                let pool = ThreadPoolBuilder::new().num_threads(n).build().unwrap();
+                (n, pool)
+            })
+            .collect();
+        let id = |stage: &str, threads: usize| {
+            let s = if threads == 1 { "" } else { "s" };
+            BenchmarkId::new(format!("{stage}, {threads} thread{s}"), grains)
+        };
 
-        group.bench_function(BenchmarkId::new("pattern build", grains), |b| {
-            b.iter(|| pattern_of(&sim, config.skin))
-        });
+        let (grain_set, wall_set) = (&sim.state.grains, &sim.state.walls);
+        let skin = config.skin * grain_set.mean_radius();
+        for (threads, pool) in &pools {
+            group.bench_function(id("friends lists", *threads), |b| {
+                b.iter(|| pool.install(|| FriendSet::build(grain_set, wall_set, skin)))
+            });
+        }
+        let (friends, dofs, pattern) = pattern_of(&sim, config.skin);
+        for (threads, pool) in &pools {
+            group.bench_function(id("pattern build", *threads), |b| {
+                b.iter(|| pool.install(|| Pattern::build(&friends, &dofs, wall_set, &[])))
+            });
+        }
 
         // The residual and tangent of the first load step at rest.
-        let (friends, dofs, pattern) = pattern_of(&sim, config.skin);
         let (depth, r_mean) = (sim.depth, sim.mean_radius());
         let material = sim.material.clone();
         let state = &mut sim.state;
@@ -117,36 +144,46 @@ fn stages(c: &mut Criterion) {
         };
         // Assembled once here, so the factorisation has its matrix when run alone.
         eq.evaluate(&u, &mut residual, Some(&mut values)).unwrap();
-        group.bench_function(BenchmarkId::new("assembly", grains), |b| {
-            b.iter(|| eq.evaluate(&u, &mut residual, Some(&mut values)).unwrap())
-        });
+        for (threads, pool) in &pools {
+            group.bench_function(id("return map", *threads), |b| {
+                b.iter(|| pool.install(|| eq.update_contacts().unwrap()))
+            });
+            group.bench_function(id("residual and tangent", *threads), |b| {
+                b.iter(|| {
+                    pool.install(|| eq.evaluate(&u, &mut residual, Some(&mut values)).unwrap())
+                })
+            });
+        }
 
+        // faer's factorisation runs on one thread (Par::Seq) whatever the pool.
         let mut stats = SolverStats::default();
         let mut linear = LinearSolver::new(config.linear);
         linear.analyse(&pattern.symbolic, &mut stats).unwrap();
         let matrix = SparseColMatRef::new(pattern.symbolic.as_ref(), &values);
-        group.bench_function(BenchmarkId::new("factorisation", grains), |b| {
+        group.bench_function(id("factorisation", 1), |b| {
             b.iter(|| linear.factorize(matrix, &mut stats).unwrap())
         });
 
-        for (name, config) in [
-            ("increment, newton", SolverConfig::default()),
-            (
-                "increment, relaxation n_i = 20",
-                SolverConfig {
-                    strategy: Strategy::Relaxation,
-                    ..SolverConfig::default()
-                },
-            ),
-        ] {
-            group.bench_function(BenchmarkId::new(name, grains), |b| {
+        for (threads, pool) in &pools {
+            group.bench_function(id("increment, newton", *threads), |b| {
                 b.iter_batched(
                     || simulation(&scene, config.clone()),
-                    |mut sim| sim.run_increment().unwrap(),
+                    |mut sim| pool.install(|| sim.run_increment().unwrap()),
                     BatchSize::PerIteration,
                 )
             });
         }
+        let relaxation = SolverConfig {
+            strategy: Strategy::Relaxation,
+            ..SolverConfig::default()
+        };
+        group.bench_function(id("increment, relaxation n_i = 20", 1), |b| {
+            b.iter_batched(
+                || simulation(&scene, relaxation.clone()),
+                |mut sim| sim.run_increment().unwrap(),
+                BatchSize::PerIteration,
+            )
+        });
     }
     group.finish();
 }

@@ -1,9 +1,11 @@
 //! How time and memory grow with the number of grains: one sandstone crystal per size
 //! (`samples::crystal_biaxial`, table 8, between four walls), set up, then its first load
 //! increment and a short run of three more, each size in a process of its own so that its peak
-//! memory is its own. Prints a markdown table.
+//! memory is its own. Prints two markdown tables: time and memory by size, and where the time
+//! of the four increments went, stage by stage, beside the time of one factorisation.
 //!
 //!     cargo run --release --example scale -- 1000 10000 100000 1000000
+//!     cargo run --release --example scale -- --threads 2 10000 100000
 //!
 //! Crystals are built in milliseconds; a prepared sample of a million grains is not. A
 //! crystal has three contacts per grain against the four of a dense prepared sample.
@@ -20,10 +22,23 @@ use std::time::Instant;
 const SHORT_RUN: usize = 3;
 
 fn main() {
-    let args: Vec<String> = std::env::args().skip(1).collect();
+    let mut args: Vec<String> = std::env::args().skip(1).collect();
+    let mut threads = 1usize;
+    if let Some(at) = args.iter().position(|a| a == "--threads") {
+        threads = match args.get(at + 1).and_then(|n| n.parse().ok()) {
+            Some(n) => n,
+            None => usage(),
+        };
+        args.drain(at..at + 2);
+    }
     if args.first().map(String::as_str) == Some("--one") {
         let grains = args.get(1).and_then(|n| n.parse().ok()).unwrap_or(1000);
-        println!("{}", measure(grains));
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads.max(1))
+            .build()
+            .expect("the thread pool");
+        let (size, stages) = pool.install(|| measure(grains, threads));
+        println!("{size}\n{stages}");
         return;
     }
     let sizes: Vec<usize> = if args.is_empty() {
@@ -31,21 +46,19 @@ fn main() {
     } else {
         match args.iter().map(|a| a.parse()).collect() {
             Ok(sizes) => sizes,
-            Err(_) => {
-                eprintln!("usage: scale [GRAINS ...]  (whole numbers)");
-                std::process::exit(2);
-            }
+            Err(_) => usage(),
         }
     };
-    println!(
-        "| grains | unknowns | contacts | set-up (s) | first increment (s) | Newton iterations | \
-         next {SHORT_RUN} increments (s) | peak memory (MB) |"
-    );
-    println!("|---|---|---|---|---|---|---|---|");
     let me = std::env::current_exe().expect("the example's own path");
+    let mut rows = Vec::new();
     for grains in sizes {
         let out = Command::new(&me)
-            .args(["--one", &grains.to_string()])
+            .args([
+                "--threads",
+                &threads.to_string(),
+                "--one",
+                &grains.to_string(),
+            ])
             .output()
             .expect("the example runs itself");
         if !out.status.success() {
@@ -55,13 +68,42 @@ fn main() {
             );
             std::process::exit(3);
         }
-        print!("{}", String::from_utf8_lossy(&out.stdout));
+        let text = String::from_utf8_lossy(&out.stdout).into_owned();
+        let mut lines = text.lines().map(str::to_string);
+        rows.push((
+            lines.next().unwrap_or_default(),
+            lines.next().unwrap_or_default(),
+        ));
+    }
+    println!(
+        "| grains | unknowns | contacts | set-up (s) | first increment (s) | Newton iterations | \
+         next {SHORT_RUN} increments (s) | peak memory (MB) |"
+    );
+    println!("|---|---|---|---|---|---|---|---|");
+    for (size, _) in &rows {
+        println!("{size}");
+    }
+    println!();
+    println!(
+        "| grains | threads | detection (s) | return map (s) | assembly (s) | symbolic (s) | \
+         factorisations (s) | solves (s) | topology (s) | {} increments (s) | per increment (s) | \
+         one factorisation (s) | per increment / one factorisation |",
+        SHORT_RUN + 1
+    );
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    for (_, stages) in &rows {
+        println!("{stages}");
     }
 }
 
-/// One table row for a crystal of about `grains` grains (rows = 1.6 columns, so that the
-/// crystal is about as high as wide).
-fn measure(grains: usize) -> String {
+fn usage() -> ! {
+    eprintln!("usage: scale [--threads N] [GRAINS ...]  (whole numbers)");
+    std::process::exit(2);
+}
+
+/// The two table rows for a crystal of about `grains` grains (rows = 1.6 columns, so that the
+/// crystal is about as high as wide), run on `threads` threads.
+fn measure(grains: usize, threads: usize) -> (String, String) {
     let columns = ((grains as f64 / 1.6).sqrt().round() as usize).max(2);
     let rows = (grains / columns).max(3) | 1;
     let scene = samples::crystal_biaxial(rows, columns, 1e6, 3e6);
@@ -70,6 +112,8 @@ fn measure(grains: usize) -> String {
     let mut sim = Simulation::new(&scene, built, SolverConfig::default(), "scale").expect("set-up");
     let setup = start.elapsed().as_secs_f64();
 
+    // The stages of the increments alone, not of the set-up.
+    let before = sim.stats;
     let start = Instant::now();
     let first = sim.run_increment().expect("first increment");
     let first_time = start.elapsed().as_secs_f64();
@@ -78,14 +122,35 @@ fn measure(grains: usize) -> String {
         sim.run_increment().expect("short run");
     }
     let short = start.elapsed().as_secs_f64();
-    format!(
+    let size = format!(
         "| {} | {} | {} | {setup:.2} | {first_time:.2} | {} | {short:.2} | {:.0} |",
         sim.state.grains.len(),
         sim.dofs().len,
         sim.state.contacts.contacts.len(),
         first.newton_iterations,
         peak_memory_mb()
-    )
+    );
+    let (t, t0) = (sim.stats.timers, before.timers);
+    let factorisations =
+        sim.stats.counters.numeric_factorisations - before.counters.numeric_factorisations;
+    let whole = first_time + short;
+    let increments = (SHORT_RUN + 1) as f64;
+    let one_factorisation = (t.factorisation - t0.factorisation) / factorisations.max(1) as f64;
+    let stages = format!(
+        "| {} | {threads} | {:.3} | {:.3} | {:.3} | {:.3} | {:.3} ({factorisations}) | {:.3} | \
+         {:.3} | {whole:.2} | {:.3} | {one_factorisation:.4} | {:.1} |",
+        sim.state.grains.len(),
+        t.detection - t0.detection,
+        t.return_map - t0.return_map,
+        t.assembly - t0.assembly,
+        t.symbolic - t0.symbolic,
+        t.factorisation - t0.factorisation,
+        t.solve - t0.solve,
+        t.topology - t0.topology,
+        whole / increments,
+        whole / increments / one_factorisation,
+    );
+    (size, stages)
 }
 
 /// The process's peak resident memory (`VmHWM`), in MB; NaN where /proc does not say.

@@ -34,6 +34,7 @@ pub mod estimate;
 pub mod geometry;
 pub mod measure;
 pub mod output;
+pub mod parallel;
 pub mod run;
 pub mod sample;
 pub mod samples;

@@ -186,15 +186,9 @@ fn main() -> ExitCode {
             threads,
             quiet,
             no_plot,
-        } => run(
-            &scene,
-            solver.as_deref(),
-            output,
-            resume,
-            threads,
-            quiet,
-            !no_plot,
-        ),
+        } => on_threads(threads, || {
+            run(&scene, solver.as_deref(), output, resume, quiet, !no_plot)
+        }),
         Command::Generate {
             scene,
             output,
@@ -202,8 +196,9 @@ fn main() -> ExitCode {
             solver,
             threads,
             quiet,
-        } => thread_pool(threads)
-            .and_then(|()| generate(&scene, &output, csv.as_deref(), solver.as_deref(), quiet)),
+        } => on_threads(threads, || {
+            generate(&scene, &output, csv.as_deref(), solver.as_deref(), quiet)
+        }),
         Command::Plot {
             file,
             output,
@@ -224,23 +219,28 @@ fn main() -> ExitCode {
             relaxation_tolerances,
             max_sweeps,
             quiet,
-        } => study(
-            &scene,
-            output,
-            [reference, newton, relaxation],
-            tolerances,
-            sweeps,
-            relaxation_tolerances,
-            max_sweeps,
-            quiet,
-        ),
+        } => on_threads(1, || {
+            // One thread: CPU time is then the time of one core, comparable across strategies.
+            study(
+                &scene,
+                output,
+                [reference, newton, relaxation],
+                tolerances,
+                sweeps,
+                relaxation_tolerances,
+                max_sweeps,
+                quiet,
+            )
+        }),
         Command::Sweep {
             sweep,
             output,
             solver,
             threads,
             quiet,
-        } => run_sweep_command(&sweep, output, solver.as_deref(), threads, quiet),
+        } => on_threads(threads, || {
+            run_sweep_command(&sweep, output, solver.as_deref(), quiet)
+        }),
         Command::Info { file } => info(&file).map(|text| print!("{text}")),
     };
     match result {
@@ -256,12 +256,20 @@ fn main() -> ExitCode {
     }
 }
 
-/// Run rayon's work on `threads` threads (at least one).
-fn thread_pool(threads: usize) -> Result<(), Error> {
+/// Run `work` on one of a pool of `threads` threads (at least one), where its parallel
+/// stages share their work. Started from inside the pool, a parallel stage begins at once on
+/// the calling thread, which takes any share another thread has not picked up yet; started
+/// from outside, it would wait for a sleeping thread to wake and then wake the caller again,
+/// which on a loaded machine costs more than a stage of a few milliseconds gains.
+fn on_threads(
+    threads: usize,
+    work: impl FnOnce() -> Result<(), Error> + Send,
+) -> Result<(), Error> {
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads.max(1))
-        .build_global()
-        .map_err(|e| Error::io("thread pool", e))
+        .build()
+        .map_err(|e| Error::io("thread pool", e))?
+        .install(work)
 }
 
 /// Solver settings from a file, or the defaults (and their TOML, stored with the results).
@@ -352,11 +360,9 @@ fn run(
     solver_path: Option<&Path>,
     output: Option<PathBuf>,
     resume: Option<PathBuf>,
-    threads: usize,
     quiet: bool,
     pictures: bool,
 ) -> Result<(), Error> {
-    thread_pool(threads)?;
     let scene_file = scene_path.display().to_string();
     let (scene, scene_text) = load_scene(scene_path)?;
     let (config, solver_text) = solver_settings(solver_path)?;
@@ -571,10 +577,8 @@ fn run_sweep_command(
     sweep_path: &Path,
     output: Option<PathBuf>,
     solver_path: Option<&Path>,
-    threads: usize,
     quiet: bool,
 ) -> Result<(), Error> {
-    thread_pool(threads)?;
     let spec = sweep::load_sweep(sweep_path)?;
     let named = spec
         .solver
@@ -626,8 +630,6 @@ fn study(
     max_sweeps: usize,
     quiet: bool,
 ) -> Result<(), Error> {
-    // One thread: CPU time is then the time of one core, and comparable across strategies.
-    thread_pool(1)?;
     let (scene, _) = load_scene(scene_path)?;
     let plan = StudyPlan {
         reference: preset(

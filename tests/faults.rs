@@ -115,10 +115,20 @@ fn a_run_killed_at_random_moments_resumes_to_the_uninterrupted_state() {
     assert!(read_history(&whole).unwrap() == read_history(&killed).unwrap());
 }
 
+/// A 2,052-grain crystal in its 6 increments, each written: enough grains and contacts that
+/// the friends lists, the return map and the assembly are shared over the threads.
+fn parallel_scene(dir: &Path) -> PathBuf {
+    let mut scene = grainstat::samples::crystal_biaxial(57, 36, 1e6, 3e6);
+    scene.output.every = 1;
+    let path = dir.join("crystal-parallel.toml");
+    std::fs::write(&path, toml::to_string(&scene).unwrap()).unwrap();
+    path
+}
+
 #[test]
 fn a_run_is_the_same_on_1_and_2_threads() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = common::crystal_scene(dir.path(), 1);
+    let scene = parallel_scene(dir.path());
     let on = |threads: &str| {
         let out_path = dir.path().join(format!("threads-{threads}.h5"));
         let out = grainstat(&[
@@ -137,6 +147,9 @@ fn a_run_is_the_same_on_1_and_2_threads() {
     let (one, two) = (on("1"), on("2"));
     let increments = read_increments(&one).unwrap();
     assert_eq!(increments, read_increments(&two).unwrap());
+    let (_, first) = read_state(&one, increments[0]).unwrap();
+    assert!(first.grains.len() >= grainstat::parallel::MIN_ITEMS);
+    assert!(first.contacts.contacts.len() >= grainstat::parallel::MIN_ITEMS);
     for k in increments {
         let (_, a) = read_state(&one, k).unwrap();
         let (_, b) = read_state(&two, k).unwrap();
@@ -152,7 +165,7 @@ fn a_generated_sample_is_the_same_on_1_and_2_threads() {
         Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/sample-sand.toml"),
     )
     .unwrap()
-    .replace("grains = 1000", "grains = 150");
+    .replace("grains = 1000", "grains = 1100");
     let scene = dir.path().join("sample.toml");
     std::fs::write(&scene, text).unwrap();
     let on = |threads: &str| {
@@ -170,6 +183,7 @@ fn a_generated_sample_is_the_same_on_1_and_2_threads() {
         read_sample(&out_path).unwrap()
     };
     let (one, two) = (on("1"), on("2"));
-    assert_eq!(one.grains.len(), 150);
+    // Enough grains that the friends lists are searched on both threads.
+    assert!(one.grains.len() >= grainstat::parallel::MIN_ITEMS);
     assert!(one == two, "the same sample, bit for bit");
 }

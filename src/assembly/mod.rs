@@ -11,7 +11,10 @@ mod local;
 pub use local::{contact_block, LocalBlock};
 
 use crate::geometry::{Chain, FriendSet, Pair, Side, WallSet};
+use crate::parallel;
 use faer::sparse::SymbolicSparseColMat;
+use rayon::prelude::*;
+use std::ops::Range;
 
 /// How a grain glued to a wall moves in a step: as a part of its wall, which stretches with
 /// the walls across it (its span walls), so that the box's edge deforms as the box does.
@@ -269,12 +272,14 @@ impl Pattern {
                 }
             }
         }
+        parallel::for_each_mut(&mut columns, |col| {
+            col.sort_unstable();
+            col.dedup();
+        });
         let mut col_ptr = Vec::with_capacity(n + 1);
         let mut row_idx = Vec::new();
         col_ptr.push(0);
-        for col in &mut columns {
-            col.sort_unstable();
-            col.dedup();
+        for col in &columns {
             row_idx.extend_from_slice(col);
             col_ptr.push(row_idx.len());
         }
@@ -285,17 +290,18 @@ impl Pattern {
                     .binary_search(&row)
                     .expect("entry in pattern")
         };
-        let mut slots = Vec::new();
         let mut start = Vec::with_capacity(maps.len() + 1);
         start.push(0);
         for m in &maps {
-            for r in 0..m.len {
-                for c in 0..m.len {
-                    slots.push(slot(m.dofs[r], m.dofs[c]));
-                }
-            }
-            start.push(slots.len());
+            start.push(start[start.len() - 1] + m.len * m.len);
         }
+        let slots = parallel::flat_map(maps.len(), |p| {
+            let m = &maps[p];
+            let dofs = &m.dofs[..m.len];
+            dofs.iter()
+                .flat_map(move |&r| dofs.iter().map(move |&c| (r, c)))
+                .map(|(r, c)| slot(r, c))
+        });
         let diagonal = (0..n).map(|j| slot(j, j)).collect();
         let couplings = wanted_couplings
             .into_iter()
@@ -339,5 +345,75 @@ impl Pattern {
     /// Value indices of pair `p`'s reduced block, row-major.
     pub fn pair_slots(&self, p: usize) -> &[usize] {
         &self.slots[self.start[p]..self.start[p + 1]]
+    }
+
+    /// Add each contact's force to `residual` and its stiffness to `tangent` (this pattern's
+    /// values), for contacts `0..pair_index.len()`: contact `i` is friend pair
+    /// `pair_index[i]`, touches the unknowns `map(i)` and has the block `block(i, &map(i))`.
+    /// The unknowns are split into one range per thread, rows of the residual and columns of
+    /// the tangent, and each thread goes through all contacts in their order, adding the
+    /// blocks of those that touch its range where they fall in it: no two threads write one
+    /// entry, and every entry is summed in the contacts' order whatever the number of
+    /// threads. A contact whose unknowns lie in two ranges has its block made in both.
+    pub fn scatter(
+        &self,
+        pair_index: &[usize],
+        map: impl Fn(usize) -> PairMap + Sync,
+        block: impl Fn(usize, &PairMap) -> LocalBlock + Sync,
+        residual: &mut [f64],
+        tangent: Option<&mut [f64]>,
+    ) {
+        let col_ptr = self.symbolic.col_ptr();
+        let bounds = if parallel::worth_it(pair_index.len()) {
+            // Shared by the entries of the tangent in each range, or by unknowns alone.
+            match tangent {
+                Some(_) => parallel::split(residual.len(), |b| col_ptr[b]),
+                None => parallel::split(residual.len(), |b| b),
+            }
+        } else {
+            vec![0, residual.len()]
+        };
+        let mut parts = Vec::with_capacity(bounds.len() - 1);
+        let (mut rest, mut rest_values) = (residual, tangent);
+        for range in bounds.windows(2) {
+            let (part, after) = std::mem::take(&mut rest).split_at_mut(range[1] - range[0]);
+            rest = after;
+            let values = rest_values.take().map(|v| {
+                let (part, after) = v.split_at_mut(col_ptr[range[1]] - col_ptr[range[0]]);
+                rest_values = Some(after);
+                part
+            });
+            parts.push((range[0]..range[1], part, values));
+        }
+        let add =
+            |(range, residual, mut values): (Range<usize>, &mut [f64], Option<&mut [f64]>)| {
+                let offset = col_ptr[range.start];
+                for (i, &p) in pair_index.iter().enumerate() {
+                    let map = map(i);
+                    let dofs = &map.dofs[..map.len];
+                    if !dofs.iter().any(|d| range.contains(d)) {
+                        continue;
+                    }
+                    let block = block(i, &map);
+                    for (a, &row) in dofs.iter().enumerate() {
+                        if range.contains(&row) {
+                            residual[row - range.start] += block.force[a];
+                        }
+                    }
+                    if let Some(values) = values.as_deref_mut() {
+                        let slots = self.pair_slots(p);
+                        for b in (0..map.len).filter(|&b| range.contains(&dofs[b])) {
+                            for (a, row) in block.stiffness.iter().take(map.len).enumerate() {
+                                values[slots[a * map.len + b] - offset] += row[b];
+                            }
+                        }
+                    }
+                }
+            };
+        if parts.len() > 1 {
+            parts.into_par_iter().for_each(add);
+        } else {
+            parts.into_iter().for_each(add);
+        }
     }
 }

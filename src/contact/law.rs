@@ -46,7 +46,7 @@ pub struct Response {
 }
 
 /// A contact law: the force by the return map from the committed shear force, and its tangent.
-pub trait ContactLaw: Sync {
+pub trait ContactLaw: Send + Sync {
     /// Normal force and `dF_n/dn` at overlap `n` (negative: apart).
     fn normal(&self, p: &ContactParams, n: f64, bonded: bool) -> (f64, f64);
 

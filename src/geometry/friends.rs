@@ -4,6 +4,7 @@
 //! this list, and it also fixes the sparsity pattern of the global stiffness matrix.
 
 use super::{CellGrid, GrainSet, WallSet};
+use crate::parallel;
 
 /// One side of a pair: a grain or a wall.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -44,33 +45,33 @@ pub struct FriendSet {
 impl FriendSet {
     /// Build the lists around the current positions: a cell grid with cells as wide as the
     /// largest possible friend distance, so only the 3x3 cells around a grain are searched.
+    /// Each grain's search is its own, shared over the threads; the lists come back in
+    /// grain order.
     pub fn build(grains: &GrainSet, walls: &WallSet, skin: f64) -> FriendSet {
         let n = grains.len();
         let mut pairs = Vec::new();
         if n > 0 {
             let r_max = grains.radius.iter().cloned().fold(0.0, f64::max);
             let grid = CellGrid::new(&grains.position, 2.0 * r_max + skin);
-            for i in 0..n {
+            pairs = parallel::flat_map(n, |i| {
                 let mut near: Vec<usize> = grid
                     .near(grains.position[i])
                     .filter(|&j| j > i && gap(grains, i, j) < skin)
                     .collect();
                 near.sort_unstable();
-                pairs.extend(near.into_iter().map(|j| Pair {
+                near.into_iter().map(move |j| Pair {
                     a: Side::Grain(i),
                     b: j,
-                }));
-            }
+                })
+            });
         }
         for (w, wall) in walls.walls.iter().enumerate() {
-            for i in 0..n {
-                if wall.distance(grains.position[i]) - grains.radius[i] < skin {
-                    pairs.push(Pair {
-                        a: Side::Wall(w),
-                        b: i,
-                    });
-                }
-            }
+            pairs.extend(parallel::flat_map(n, |i| {
+                (wall.distance(grains.position[i]) - grains.radius[i] < skin).then_some(Pair {
+                    a: Side::Wall(w),
+                    b: i,
+                })
+            }));
         }
         FriendSet {
             pairs,

@@ -1,12 +1,13 @@
 //! The equilibrium equations of one load increment: residual `R = f_ext + f_contact` on every
 //! unknown, and the tangent `K = -dR/du`, assembled into the fixed pattern.
 
-use crate::assembly::{contact_block, DofMap, Pattern};
+use crate::assembly::{contact_block, DofMap, PairMap, Pattern};
 use crate::contact::{kinematics, Configuration, Contact, ContactLaw, Kinematics, SlipTangent};
 use crate::geometry::{
     chains, extent_along, rotate, Chain, FriendSet, GrainSet, Membrane, MembraneShape, Pair, Side,
     WallSet,
 };
+use crate::parallel;
 use crate::simulation::MaterialModel;
 use crate::solver::stats::{secs, StageTimers};
 use crate::solver::Equations;
@@ -342,41 +343,44 @@ impl IncrementEquations<'_> {
     }
 
     /// Kinematics and the return map of every contact, in the configuration last set by
-    /// [`IncrementEquations::configure`].
+    /// [`IncrementEquations::configure`]: each contact on its own, shared over the threads.
     pub fn update_contacts(&mut self) -> Result<(), NumericError> {
         let start = Instant::now();
-        self.kin.clear();
-        for idx in 0..self.contacts.len() {
-            let k = self.respond(idx)?;
-            self.kin.push(k);
-        }
+        let (mut contacts, mut kin) = (std::mem::take(self.contacts), std::mem::take(self.kin));
+        parallel::map_mut_into(&mut contacts, &mut kin, |c| self.respond_to(c));
+        (*self.contacts, *self.kin) = (contacts, kin);
         self.timers.return_map += secs(start);
-        Ok(())
+        self.contacts.iter().try_for_each(finite)
     }
 
-    /// Whether contact `idx` is part of a wall's glue: a glued grain's contact with its wall
-    /// or with another grain glued to the same wall. The wall sets where such grains go (it
-    /// stretches with the box, see [`crate::assembly::Glue`]), so the contact carries
+    /// Whether the contact of `pair` is part of a wall's glue: a glued grain's contact with
+    /// its wall or with another grain glued to the same wall. The wall sets where such grains
+    /// go (it stretches with the box, see [`crate::assembly::Glue`]), so the contact carries
     /// nothing that changes: a chain of glued grains along a side that the top's move
     /// compressed would otherwise carry load past the sample.
-    pub fn is_glue(&self, idx: usize) -> bool {
-        let c = &self.contacts[idx];
+    pub fn is_glue(&self, pair: Pair) -> bool {
         let wall_of = |g: usize| self.dofs.glue[g].map(|glue| glue.wall);
-        let a = match c.pair.a {
+        let a = match pair.a {
             Side::Wall(w) => Some(w),
             Side::Grain(a) => wall_of(a),
         };
-        a.is_some() && a == wall_of(c.pair.b)
+        a.is_some() && a == wall_of(pair.b)
     }
 
-    /// Kinematics and the return map of contact `idx` in the current configuration (a glue
-    /// contact keeps the response it was glued with).
+    /// Kinematics and the return map of contact `idx` in the current configuration.
     pub fn respond(&mut self, idx: usize) -> Result<Kinematics, NumericError> {
-        let glue = self.is_glue(idx);
-        let c = &mut self.contacts[idx];
+        let mut contacts = std::mem::take(self.contacts);
+        let k = self.respond_to(&mut contacts[idx]);
+        *self.contacts = contacts;
+        finite(&self.contacts[idx]).map(|_| k)
+    }
+
+    /// Kinematics and the return map of contact `c` in the current configuration (a glue
+    /// contact keeps the response it was glued with).
+    fn respond_to(&self, c: &mut Contact) -> Kinematics {
         let k = kinematics(c.pair, self.grains, self.walls, self.q);
-        if glue {
-            return Ok(k);
+        if self.is_glue(c.pair) {
+            return k;
         }
         c.overlap = k.overlap;
         c.shear_increment = k.shear_increment - c.shear_offset;
@@ -405,13 +409,7 @@ impl IncrementEquations<'_> {
                 r.dfs_ds = r.dfs_ds.max(c.params.kappa * floor);
             }
         }
-        if !(c.response.normal_force.is_finite() && c.response.shear_force.is_finite()) {
-            return Err(NumericError::NotFinite {
-                what: "contact force",
-                place: format!("contact {:?}-{}", c.pair.a, c.pair.b),
-            });
-        }
-        Ok(k)
+        k
     }
 
     /// Membrane pressures on the chains' grains, and their tangent: a segment `e` from `a` to
@@ -497,11 +495,7 @@ impl IncrementEquations<'_> {
     /// The direction a wall's unknown moves its side of contact `idx` along (see
     /// [`crate::geometry::Wall::push_direction`]); unused for a grain pair.
     pub(super) fn push_direction(&self, pair: Pair, idx: usize) -> [f64; 2] {
-        let normal = self.kin[idx].normal;
-        match pair.a {
-            Side::Wall(w) => self.walls.walls[w].push_direction(normal),
-            Side::Grain(_) => normal,
-        }
+        push_direction(self.walls, pair, &self.kin[idx])
     }
 
     /// Current loaded length of wall `w`: fixed, a circle's circumference, or the gap between
@@ -517,6 +511,27 @@ impl IncrementEquations<'_> {
                 None => extent_along(&self.q.position, &self.grains.radius, wall.tangent()),
             },
         }
+    }
+}
+
+/// The direction a wall's unknown moves side `a` of `pair` along (see
+/// [`crate::geometry::Wall::push_direction`]); the normal for a grain pair, where it is unused.
+fn push_direction(walls: &WallSet, pair: Pair, kin: &Kinematics) -> [f64; 2] {
+    match pair.a {
+        Side::Wall(w) => walls.walls[w].push_direction(kin.normal),
+        Side::Grain(_) => kin.normal,
+    }
+}
+
+/// An error naming contact `c` if its forces are not finite.
+fn finite(c: &Contact) -> Result<(), NumericError> {
+    if c.response.normal_force.is_finite() && c.response.shear_force.is_finite() {
+        Ok(())
+    } else {
+        Err(NumericError::NotFinite {
+            what: "contact force",
+            place: format!("contact {:?}-{}", c.pair.a, c.pair.b),
+        })
     }
 }
 
@@ -668,27 +683,33 @@ impl Equations for IncrementEquations<'_> {
         self.load_scale = sum_ext / loaded;
         self.update_contacts()?;
         let start = Instant::now();
-        let mut sum_fn = 0.0;
-        for (idx, c) in self.contacts.iter().enumerate() {
-            if self.is_glue(idx) {
-                continue;
-            }
-            sum_fn += c.response.normal_force.abs();
-            let p = self.pair_index[idx];
-            let map = self.dofs.pair_map(c.pair, self.push_direction(c.pair, idx));
-            let block = contact_block(&self.kin[idx], &c.response, &map, self.symmetric);
-            for a in 0..map.len {
-                residual[map.dofs[a]] += block.force[a];
-            }
-            if let Some(t) = tangent.as_deref_mut() {
-                let slots = self.pattern.pair_slots(p);
-                for a in 0..map.len {
-                    for b in 0..map.len {
-                        t[slots[a * map.len + b]] += block.stiffness[a][b];
-                    }
+        // Glue contacts carry nothing that changes (see `is_glue`): they count nowhere.
+        let sum_fn = self
+            .contacts
+            .iter()
+            .filter(|c| !self.is_glue(c.pair))
+            .fold(0.0, |sum, c| sum + c.response.normal_force.abs());
+        // Each contact's block added in the contacts' order, on the threads' shares of the
+        // unknowns; a glue contact's map is empty.
+        let (walls, dofs, kin, contacts) = (self.walls, self.dofs, &*self.kin, &*self.contacts);
+        let glue: Vec<bool> = contacts.iter().map(|c| self.is_glue(c.pair)).collect();
+        self.pattern.scatter(
+            self.pair_index,
+            |i| {
+                let map = dofs.pair_map(
+                    contacts[i].pair,
+                    push_direction(walls, contacts[i].pair, &kin[i]),
+                );
+                if glue[i] {
+                    PairMap { len: 0, ..map }
+                } else {
+                    map
                 }
-            }
-        }
+            },
+            |i, map| contact_block(&kin[i], &contacts[i].response, map, self.symmetric),
+            residual,
+            tangent.as_deref_mut(),
+        );
         self.membrane_loads(residual, tangent.as_deref_mut());
         self.anchor_springs(u, residual, tangent.as_deref_mut());
         // A glued grain's own unknowns: springs of a contact's stiffness hold them at zero.
