@@ -258,8 +258,8 @@ pub fn prepare(
     )?;
     let report = sim.run_increment()?;
 
-    // Cement for a bonded material. The prepared state is the start of
-    // whatever uses it: no increments, no stages done.
+    // Cement for a bonded material. The prepared state is the start of whatever uses it: no
+    // increments, no stages done.
     let mut state = sim.state;
     (state.increment, state.stage, state.stage_increment) = (0, 0, 0);
     let mut bonds = Vec::new();
