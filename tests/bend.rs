@@ -19,6 +19,16 @@ const COLUMNS: usize = 40;
 /// Distance of each support from the beam's end, in radii.
 const OVERHANG: f64 = 8.0;
 
+/// The sandstone of every beam here (table 8: linear contacts, cemented).
+const SANDSTONE: &str = r#"[material]
+law = "linear"
+normal_stiffness = 1e6
+poisson = 0.16
+friction = 0.6
+cohesion = 1e8
+bonded = true
+"#;
+
 /// The plugs of a three-point bend test: supports at `left` and `right` below the beam (`y =
 /// below`), the left one glued (a pin), the right one frictionless (a roller), both brought
 /// up to it, and the loading plug at `middle` above it (`y = above`), brought down to it.
@@ -59,14 +69,7 @@ fn crystal_beam(push: f64, increments: usize) -> String {
     let plug = 2.0 * R;
     format!(
         r#"name = "crystal-bend"
-[material]
-law = "linear"
-normal_stiffness = 1e6
-poisson = 0.16
-friction = 0.6
-cohesion = 1e8
-bonded = true
-[grains.crystal]
+{SANDSTONE}[grains.crystal]
 rows = {ROWS}
 columns = {COLUMNS}
 radius = {R:e}
@@ -152,23 +155,20 @@ fn crystal_beam_deflects_as_beam_theory_says() {
 
 /// A 300-grain sandstone beam (table 8, type A, length / height 4.5, 10 bar), as
 /// `examples/sample-beam.toml` makes its 600.
-const SAMPLE: &str = r#"name = "small-beam"
-[material]
-law = "linear"
-normal_stiffness = 1e6
-poisson = 0.16
-friction = 0.6
-cohesion = 1e8
-bonded = true
-[sample]
+fn sample_scene() -> String {
+    format!(
+        r#"name = "small-beam"
+{SANDSTONE}[sample]
 region = "beam"
 aspect = 4.5
 grains = 300
-distribution = { kind = "a", mean_radius = 1e-4, ratio = 4.0 }
+distribution = {{ kind = "a", mean_radius = 1e-4, ratio = 4.0 }}
 seed = 1
 friction = 0.0
 stress = 1e6
-"#;
+"#
+    )
+}
 
 /// The bend test of `examples/bend-test.toml` on a beam spanning `x0..x1` above `y0` with
 /// its top at `y1`: supports `overhang` in from the ends, the load at mid-span, pushed down
@@ -178,14 +178,7 @@ fn bend_scene(box_: [f64; 4], overhang: f64, increments: usize) -> String {
     let plug = 5e-4;
     format!(
         r#"name = "small-bend"
-[material]
-law = "linear"
-normal_stiffness = 1e6
-poisson = 0.16
-friction = 0.6
-cohesion = 1e8
-bonded = true
-[grains]
+{SANDSTONE}[grains]
 sample = "beam.h5"
 walls = {{}}
 {plugs}
@@ -210,15 +203,15 @@ failure_drop = 0.5
 /// Total push of the loading plug in the bend scenes (m).
 const PUSH: f64 = 1e-4;
 
-/// The 300-grain beam of [`SAMPLE`] prepared in `dir`, with its bounding box and the
+/// The 300-grain beam of [`sample_scene`] prepared in `dir`, with its bounding box and the
 /// supports' distance from its ends.
 fn prepared_beam(dir: &Path) -> ([f64; 4], f64) {
-    let sample_scene = dir.join("sample.toml");
-    std::fs::write(&sample_scene, SAMPLE).unwrap();
+    let scene_file = dir.join("sample.toml");
+    std::fs::write(&scene_file, sample_scene()).unwrap();
     let sample = dir.join("beam.h5");
     let out = common::grainstat(&[
         "generate",
-        sample_scene.to_str().unwrap(),
+        scene_file.to_str().unwrap(),
         "-o",
         sample.to_str().unwrap(),
     ]);

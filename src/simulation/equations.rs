@@ -684,15 +684,16 @@ impl Equations for IncrementEquations<'_> {
         self.update_contacts()?;
         let start = Instant::now();
         // Glue contacts carry nothing that changes (see `is_glue`): they count nowhere.
+        let glue: Vec<bool> = self.contacts.iter().map(|c| self.is_glue(c.pair)).collect();
         let sum_fn = self
             .contacts
             .iter()
-            .filter(|c| !self.is_glue(c.pair))
-            .fold(0.0, |sum, c| sum + c.response.normal_force.abs());
+            .zip(&glue)
+            .filter(|(_, &glued)| !glued)
+            .fold(0.0, |sum, (c, _)| sum + c.response.normal_force.abs());
         // Each contact's block added in the contacts' order, on the threads' shares of the
         // unknowns; a glue contact's map is empty.
         let (walls, dofs, kin, contacts) = (self.walls, self.dofs, &*self.kin, &*self.contacts);
-        let glue: Vec<bool> = contacts.iter().map(|c| self.is_glue(c.pair)).collect();
         self.pattern.scatter(
             self.pair_index,
             |i| {
