@@ -123,6 +123,7 @@ fn stages(c: &mut Criterion) {
             step: &step,
             membranes: &[],
             chains: &mut chains,
+            chains_held: false,
             carriers: &[],
             anchors: &anchors,
             reopened: &[],

@@ -108,6 +108,10 @@ pub struct Track {
     pub cuts: usize,
     /// Mean grain radius (m).
     pub r_mean: f64,
+    /// Whether nothing holds the sample in place (no walls): its grain positions are then
+    /// fixed only up to a rigid motion, which the global solver's anchors choose and the
+    /// relaxation leaves free.
+    pub floating: bool,
     /// Why the run stopped early, if it did.
     pub failure: Option<NumericError>,
 }
@@ -128,6 +132,7 @@ pub fn cpu_seconds() -> f64 {
 pub fn track(sim: &mut Simulation, mut on_increment: impl FnMut(usize)) -> Track {
     let mut out = Track {
         r_mean: sim.mean_radius(),
+        floating: sim.state.walls.is_empty(),
         ..Default::default()
     };
     while !sim.is_finished() {
@@ -199,7 +204,14 @@ pub fn compare(run: &Track, reference: &Track) -> Vec<IncrementError> {
             let (wa, wb) = (&run.wall_stress[k], &reference.wall_stress[k]);
             let wall_scale = largest(&mut wb.iter().copied());
             let wall_diff = largest(&mut wa.iter().zip(wb).map(|(x, y)| x - y));
-            let moved: Vec<f64> = run.position[k]
+            let fitted;
+            let positions = if reference.floating {
+                fitted = rigidly_fitted(&run.position[k], &reference.position[k]);
+                &fitted
+            } else {
+                &run.position[k]
+            };
+            let moved: Vec<f64> = positions
                 .iter()
                 .zip(&reference.position[k])
                 .map(|(p, q)| (p[0] - q[0]).hypot(p[1] - q[1]))
@@ -212,6 +224,34 @@ pub fn compare(run: &Track, reference: &Track) -> Vec<IncrementError> {
                 displacement_rms: rms / reference.r_mean,
                 residual: run.residual[k],
             }
+        })
+        .collect()
+}
+
+/// `points` moved by the rigid motion (rotation about their centroid, then translation)
+/// that best fits them onto `target` in the least-squares sense.
+fn rigidly_fitted(points: &[[f64; 2]], target: &[[f64; 2]]) -> Vec<[f64; 2]> {
+    let n = points.len().max(1) as f64;
+    let centroid = |v: &[[f64; 2]]| {
+        v.iter()
+            .fold([0.0; 2], |c, p| [c[0] + p[0] / n, c[1] + p[1] / n])
+    };
+    let (cp, ct) = (centroid(points), centroid(target));
+    let (mut dot, mut cross) = (0.0, 0.0);
+    for (p, t) in points.iter().zip(target) {
+        let (a, b) = ([p[0] - cp[0], p[1] - cp[1]], [t[0] - ct[0], t[1] - ct[1]]);
+        dot += a[0] * b[0] + a[1] * b[1];
+        cross += a[0] * b[1] - a[1] * b[0];
+    }
+    let (sin, cos) = cross.atan2(dot).sin_cos();
+    points
+        .iter()
+        .map(|p| {
+            let a = [p[0] - cp[0], p[1] - cp[1]];
+            [
+                ct[0] + cos * a[0] - sin * a[1],
+                ct[1] + sin * a[0] + cos * a[1],
+            ]
         })
         .collect()
 }
@@ -435,4 +475,25 @@ pub fn markdown(scene: &str, reference: &Track, rows: &[StudyRow]) -> String {
         }
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_rigid_motion_is_fitted_away() {
+        let target = [[0.0, 0.0], [1.0, 0.2], [0.3, 1.5], [-0.7, 0.4]];
+        let (sin, cos) = 0.3f64.sin_cos();
+        let moved: Vec<[f64; 2]> = target
+            .iter()
+            .map(|p| [cos * p[0] - sin * p[1] + 2.0, sin * p[0] + cos * p[1] - 1.0])
+            .collect();
+        for (p, t) in rigidly_fitted(&moved, &target).iter().zip(&target) {
+            assert!(
+                (p[0] - t[0]).abs() < 1e-14 && (p[1] - t[1]).abs() < 1e-14,
+                "{p:?} {t:?}"
+            );
+        }
+    }
 }

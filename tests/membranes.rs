@@ -4,36 +4,12 @@
 
 mod common;
 
-use common::sandstone;
+use common::{free_under_membrane, prepared, sandstone};
 use grainstat::geometry::{Membrane, MembraneShape};
 use grainstat::measure::ring_stresses;
-use grainstat::sample::prepare::{prepare, PrepareSpec, Prepared, RegionShape};
-use grainstat::sample::{SizeDistribution, SizeKind};
+use grainstat::sample::prepare::RegionShape;
 use grainstat::simulation::{Simulation, StageProgram};
 use grainstat::solver::SolverConfig;
-
-fn prepared(shape: RegionShape, aspect: f64, grains: usize, seed: u64, stress: f64) -> Prepared {
-    let spec = PrepareSpec {
-        shape,
-        aspect,
-        grains,
-        distribution: SizeDistribution::new(SizeKind::A, 1e-4, 4.0).unwrap(),
-        seed,
-        friction: 0.0,
-        stress,
-        start_fraction: 0.5,
-        solid_fraction: 0.75,
-        depth: None,
-    };
-    prepare(
-        &spec,
-        &sandstone(),
-        &SolverConfig::default(),
-        "test",
-        |_, _| {},
-    )
-    .unwrap()
-}
 
 /// A stage that moves no wall and takes walls and membranes to the given stresses.
 fn stage(
@@ -140,12 +116,7 @@ fn annulus_follows_lame(outer_boundary: Outer) {
         // Walls: the ring ("outer") and the plug ("inner"), both stress-controlled.
         Outer::Ring => (vec![stage(4, 2, vec![Some(p1), Some(p0)], vec![])], p1 - p0),
         Outer::Membrane => {
-            state.keep_walls(&[]);
-            state.membranes = vec![Membrane {
-                name: "outer".into(),
-                shape: MembraneShape::Ring { center: [0.0; 2] },
-                pressure: p0,
-            }];
+            free_under_membrane(&mut state, p0);
             (vec![stage(4, 0, vec![], vec![Some(p1)])], p1)
         }
     };
@@ -248,12 +219,7 @@ fn a_freed_annulus_takes_its_first_increments_under_a_ring_membrane() {
     // exact solve does not converge).
     let prepared = prepared(RegionShape::Annulus, 3.0, 1000, 1, p0);
     let mut state = prepared.state;
-    state.keep_walls(&[]);
-    state.membranes = vec![Membrane {
-        name: "outer".into(),
-        shape: MembraneShape::Ring { center: [0.0; 2] },
-        pressure: p0,
-    }];
+    free_under_membrane(&mut state, p0);
     let mut sim = Simulation::from_state(
         "cylinder".into(),
         SolverConfig::default(),

@@ -172,3 +172,61 @@ fn the_study_writes_its_table_and_plot_and_effort_buys_accuracy() {
         "{md}"
     );
 }
+
+/// A cemented annulus freed of its ring and plug, a membrane all around: nothing holds the
+/// sample, so the global solver anchors it and the relaxation leaves it free. Run to the
+/// same tolerance, the relaxation meets it (the anchors once carried what its sweeps had not
+/// passed through the sample, and its residual grew with them) and agrees with Newton up to
+/// a rigid motion.
+#[test]
+fn relaxation_and_newton_agree_on_an_annulus_under_a_membrane() {
+    use grainstat::sample::prepare::RegionShape;
+    use grainstat::simulation::StageProgram;
+
+    let p0 = 1e6;
+    let prepared = common::prepared(RegionShape::Annulus, 3.0, 300, 5, p0);
+    let sandstone = common::sandstone();
+    let mut state = prepared.state;
+    common::free_under_membrane(&mut state, p0);
+    let stage = StageProgram {
+        name: "load".into(),
+        increments: 2,
+        stress: vec![],
+        normal_move: vec![],
+        slide: vec![],
+        shear_strain: vec![],
+        glue: vec![],
+        pressure: vec![Some(2.0 * p0)],
+        control: Vec::new(),
+        until_failure: false,
+        failure_drop: None,
+    };
+    let run = |config: SolverConfig| {
+        let mut sim = Simulation::from_state(
+            "annulus".into(),
+            config,
+            sandstone.clone(),
+            prepared.depth,
+            vec![stage.clone()],
+            state.clone(),
+        )
+        .unwrap();
+        let out = track(&mut sim, |_| {});
+        assert_eq!(out.failure, None);
+        out
+    };
+    let tolerance = 1e-3;
+    let reference = run(newton(1e-12));
+    let relaxed = run(relaxation(1_000_000, tolerance));
+    for (k, e) in compare(&relaxed, &reference).iter().enumerate() {
+        eprintln!("annulus: increment {}: {e:?}", k + 1);
+        assert!(e.residual <= tolerance, "increment {}: {e:?}", k + 1);
+        assert!(
+            e.macro_stress < 10.0 * tolerance,
+            "increment {}: {e:?}",
+            k + 1
+        );
+        assert!(e.displacement_rms < 1e-2, "increment {}: {e:?}", k + 1);
+        assert!(e.displacement < 0.1, "increment {}: {e:?}", k + 1);
+    }
+}

@@ -207,6 +207,8 @@ pub struct IncrementEquations<'a> {
     pub membranes: &'a [Membrane],
     /// Each membrane's chain: found anew where a step closed a gap, as the grains roll.
     pub chains: &'a mut Vec<Chain>,
+    /// Whether the chains stay as they are (see [`super::CHAIN_CHANGES`]).
+    pub chains_held: bool,
     /// The grains the membranes may lie on ([`membrane_carriers`]).
     pub carriers: &'a [bool],
     /// Springs on the rigid-body motions no wall holds.
@@ -553,7 +555,7 @@ impl Equations for IncrementEquations<'_> {
         let chatter = CHATTER * self.r_mean;
         self.configure(u);
         // The membranes follow the grains, as far as the pattern couples their new chains.
-        if !self.membranes.is_empty() {
+        if !self.membranes.is_empty() && !self.chains_held {
             let chains = chains(
                 self.membranes,
                 &self.q.position,

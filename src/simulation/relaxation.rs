@@ -55,9 +55,21 @@ impl Simulation {
             total.lost += change.lost;
             total.broken += change.broken;
             if left == 0 || (settled && !change.any()) {
+                if change.any() {
+                    // The increment as it stands, with the contacts just made and lost.
+                    report.residual = self.residual_at(step, &u)?;
+                }
                 return Ok((u, total));
             }
         }
+    }
+
+    /// Relative residual of the increment's equations at `u`.
+    fn residual_at(&mut self, step: &LoadStep, u: &[f64]) -> Result<f64, NumericError> {
+        let mut residual = vec![0.0; u.len()];
+        let mut eq = self.equations(step);
+        eq.evaluate(u, &mut residual, None)?;
+        Ok(eq.residual_norm(&residual).0)
     }
 
     /// One pass of at most `sweeps` sweeps from `u`.

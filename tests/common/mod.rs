@@ -1,10 +1,15 @@
-//! What several test files share: running the `grainstat` binary, reading its errors, and
-//! the sandstone of table 8.
+//! What several test files share: running the `grainstat` binary, reading its errors, the
+//! sandstone of table 8, and samples of it prepared in walls or freed under a membrane.
 
 #![allow(dead_code)] // each test file uses its own part
 
+use grainstat::geometry::{Membrane, MembraneShape};
+use grainstat::sample::prepare::{prepare, PrepareSpec, Prepared, RegionShape};
+use grainstat::sample::{SizeDistribution, SizeKind};
 use grainstat::scene::{CohesionRadius, LawKind};
 use grainstat::simulation::MaterialModel;
+use grainstat::solver::SolverConfig;
+use grainstat::state::State;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -63,6 +68,47 @@ pub fn sandstone() -> MaterialModel {
         bonded: true,
         fixed_rotations: false,
     }
+}
+
+/// The sandstone prepared in `shape` (type A grains, `f_gg' = 0`) to the isotropic `stress`.
+pub fn prepared(
+    shape: RegionShape,
+    aspect: f64,
+    grains: usize,
+    seed: u64,
+    stress: f64,
+) -> Prepared {
+    let spec = PrepareSpec {
+        shape,
+        aspect,
+        grains,
+        distribution: SizeDistribution::new(SizeKind::A, 1e-4, 4.0).unwrap(),
+        seed,
+        friction: 0.0,
+        stress,
+        start_fraction: 0.5,
+        solid_fraction: 0.75,
+        depth: None,
+    };
+    prepare(
+        &spec,
+        &sandstone(),
+        &SolverConfig::default(),
+        "test",
+        |_, _| {},
+    )
+    .unwrap()
+}
+
+/// A prepared annulus freed of its ring and plug: a ring membrane at `pressure` all around,
+/// the borehole free (the start of the cylinder test, thesis 4.4).
+pub fn free_under_membrane(state: &mut State, pressure: f64) {
+    state.keep_walls(&[]);
+    state.membranes = vec![Membrane {
+        name: "outer".into(),
+        shape: MembraneShape::Ring { center: [0.0; 2] },
+        pressure,
+    }];
 }
 
 /// A small valid scene (for bad-input tests to spoil): box walls around a crystal, one stage.
