@@ -10,8 +10,8 @@ use grainstat::output::{read_history, read_increments, read_state};
 use grainstat::sample::prepare::{prepare, PrepareSpec, RegionShape};
 use grainstat::sample::{SizeDistribution, SizeKind};
 use grainstat::samples;
-use grainstat::scene::{build_grains, Friction, LawKind, Scene};
-use grainstat::simulation::{MaterialModel, Simulation};
+use grainstat::scene::{build_grains, Friction, Scene};
+use grainstat::simulation::Simulation;
 use grainstat::solver::SolverConfig;
 use std::path::Path;
 
@@ -94,18 +94,7 @@ fn rattlers_stay_where_they_are_and_the_rest_converges() {
 
 #[test]
 fn a_wide_grading_is_brought_to_equilibrium() {
-    let sand = MaterialModel {
-        law: LawKind::Hertz,
-        normal_stiffness: 0.0,
-        shear_modulus: 1e9,
-        poisson: 0.16,
-        friction: 0.6,
-        cohesion: 0.0,
-        cohesion_radius: grainstat::scene::CohesionRadius::Mean,
-        cohesion_horizontal: 1.0,
-        bonded: false,
-        fixed_rotations: false,
-    };
+    let sand = common::sand();
     for ratio in [10.0, 20.0] {
         let spec = PrepareSpec {
             shape: RegionShape::Rectangle,

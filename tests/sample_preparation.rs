@@ -2,26 +2,11 @@
 //! growing (table 2), equilibrium at the target stress afterwards, and the same sample for
 //! the same seed whatever the number of threads.
 
+mod common;
+
 use grainstat::sample::prepare::{prepare, PrepareSpec, Prepared, RegionShape};
 use grainstat::sample::{SizeDistribution, SizeKind};
-use grainstat::scene::{CohesionRadius, LawKind};
-use grainstat::simulation::MaterialModel;
 use grainstat::solver::SolverConfig;
-
-fn sand() -> MaterialModel {
-    MaterialModel {
-        law: LawKind::Hertz,
-        normal_stiffness: 0.0,
-        shear_modulus: 1e9,
-        poisson: 0.16,
-        friction: 0.6,
-        cohesion: 0.0,
-        cohesion_radius: CohesionRadius::Mean,
-        cohesion_horizontal: 1.0,
-        bonded: false,
-        fixed_rotations: false,
-    }
-}
 
 fn spec(shape: RegionShape, grains: usize, kind: SizeKind, friction: f64) -> PrepareSpec {
     PrepareSpec {
@@ -43,7 +28,14 @@ fn spec(shape: RegionShape, grains: usize, kind: SizeKind, friction: f64) -> Pre
 }
 
 fn prepared(spec: &PrepareSpec) -> Prepared {
-    prepare(spec, &sand(), &SolverConfig::default(), "test", |_, _| {}).unwrap()
+    prepare(
+        spec,
+        &common::sand(),
+        &SolverConfig::default(),
+        "test",
+        |_, _| {},
+    )
+    .unwrap()
 }
 
 /// Wall stresses and eq. A.41 at the target within 1%, residual at the tolerance.

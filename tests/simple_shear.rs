@@ -292,20 +292,7 @@ shear_strain = { top = 1e-4 }"#,
 fn dense_sand_fails_in_simple_shear() {
     use grainstat::sample::prepare::{prepare, PrepareSpec, RegionShape};
     use grainstat::sample::{write_sample, SizeDistribution, SizeKind};
-    use grainstat::scene::{CohesionRadius, LawKind};
-    use grainstat::simulation::MaterialModel;
-    let sand = MaterialModel {
-        law: LawKind::Hertz,
-        normal_stiffness: 0.0,
-        shear_modulus: 1e9,
-        poisson: 0.16,
-        friction: 0.6,
-        cohesion: 0.0,
-        cohesion_radius: CohesionRadius::Mean,
-        cohesion_horizontal: 1.0,
-        bonded: false,
-        fixed_rotations: false,
-    };
+    let sand = common::sand();
     let spec = PrepareSpec {
         shape: RegionShape::Rectangle,
         aspect: 1.0,

@@ -107,7 +107,7 @@ const EXTENT_CHANGE: f64 = 1e-10;
 /// chain in every one of 30 passes). Held, the chain loads that grain or passes over it as
 /// the last pass decided: one grain's share of the membrane, placed by the round-off of
 /// where the grain stands.
-pub(crate) const CHAIN_CHANGES: usize = 5;
+const CHAIN_CHANGES: usize = 5;
 
 /// Share of its starting residual a pass must end below, when it ran out of iterations, to
 /// go on as another pass.

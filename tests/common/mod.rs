@@ -1,5 +1,5 @@
 //! What several test files share: running the `grainstat` binary, reading its errors, the
-//! sandstone of table 8, and samples of it prepared in walls or freed under a membrane.
+//! sand of table 1 and the sandstone of table 8, and samples of it prepared in walls or freed under a membrane.
 
 #![allow(dead_code)] // each test file uses its own part
 
@@ -52,6 +52,22 @@ pub fn crystal_scene(dir: &Path, every: usize) -> PathBuf {
     let path = dir.join("crystal.toml");
     std::fs::write(&path, toml::to_string(&scene).unwrap()).unwrap();
     path
+}
+
+/// Sand, table 1: Hertz-Mindlin contacts, `G_mu` = 1 GPa, `nu_mu` = 0.16, `f_gg''` = 0.6.
+pub fn sand() -> MaterialModel {
+    MaterialModel {
+        law: LawKind::Hertz,
+        normal_stiffness: 0.0,
+        shear_modulus: 1e9,
+        poisson: 0.16,
+        friction: 0.6,
+        cohesion: 0.0,
+        cohesion_radius: CohesionRadius::Mean,
+        cohesion_horizontal: 1.0,
+        bonded: false,
+        fixed_rotations: false,
+    }
 }
 
 /// Sandstone, table 8: linear contacts, `k_n` = 1 MN/m, cemented.
