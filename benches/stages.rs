@@ -156,14 +156,16 @@ fn stages(c: &mut Criterion) {
             });
         }
 
-        // faer's factorisation runs on one thread (Par::Seq) whatever the pool.
-        let mut stats = SolverStats::default();
-        let mut linear = LinearSolver::new(config.linear);
-        linear.analyse(&pattern.symbolic, &mut stats).unwrap();
+        // faer's Cholesky takes the pool's threads from PARALLEL_UNKNOWNS unknowns on.
         let matrix = SparseColMatRef::new(pattern.symbolic.as_ref(), &values);
-        group.bench_function(id("factorisation", 1), |b| {
-            b.iter(|| linear.factorize(matrix, &mut stats).unwrap())
-        });
+        for (threads, pool) in &pools {
+            let mut stats = SolverStats::default();
+            let mut linear = LinearSolver::new(config.linear);
+            pool.install(|| linear.analyse(&pattern.symbolic, &mut stats).unwrap());
+            group.bench_function(id("factorisation", *threads), |b| {
+                b.iter(|| pool.install(|| linear.factorize(matrix, &mut stats).unwrap()))
+            });
+        }
 
         for (threads, pool) in &pools {
             group.bench_function(id("increment, newton", *threads), |b| {
