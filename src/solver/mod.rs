@@ -4,6 +4,7 @@
 
 pub mod config;
 pub mod dynamic;
+pub mod krylov;
 pub mod linear;
 pub mod newton;
 pub mod relaxation;
