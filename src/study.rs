@@ -169,7 +169,8 @@ pub fn track(sim: &mut Simulation, mut on_increment: impl FnMut(usize)) -> Track
 pub struct IncrementError {
     /// Largest difference of a macro stress component over the reference's largest.
     pub macro_stress: f64,
-    /// Largest difference of a wall stress over the reference's largest wall stress.
+    /// Largest difference of a wall stress over the reference's largest wall stress (NaN
+    /// without walls).
     pub wall_stress: f64,
     /// Largest distance of a grain centre from the reference's, in mean radii.
     pub displacement: f64,
@@ -274,10 +275,13 @@ impl StudyRow {
         if self.track.failure.is_some() {
             return None;
         }
+        // A scene without walls keeps its wall stress error NaN.
         Some(
             self.errors
                 .iter()
-                .fold(IncrementError::default(), |m, e| m.max(*e)),
+                .copied()
+                .reduce(IncrementError::max)
+                .unwrap_or_default(),
         )
     }
 }
@@ -388,14 +392,14 @@ pub fn markdown(scene: &str, reference: &Track, rows: &[StudyRow]) -> String {
             Some(w) => {
                 let _ = writeln!(
                     s,
-                    "| {} | {} | {:.2} | {} | {:.1e} | {:.1e} | {:.1e} | {:.1e} / {:.1e} | {:.1e} |",
+                    "| {} | {} | {:.2} | {} | {:.1e} | {:.1e} | {} | {:.1e} / {:.1e} | {:.1e} |",
                     row.trial.solver,
                     row.trial.setting,
                     t.cpu,
                     t.iterations,
                     w.macro_stress,
                     row.errors.first().map_or(f64::NAN, |e| e.macro_stress),
-                    w.wall_stress,
+                    wall_cell(w.wall_stress),
                     w.displacement,
                     w.displacement_rms,
                     w.residual
@@ -464,10 +468,10 @@ pub fn markdown(scene: &str, reference: &Track, rows: &[StudyRow]) -> String {
         for (k, e) in row.errors.iter().enumerate() {
             let _ = writeln!(
                 s,
-                "| {} | {:.1e} | {:.1e} | {:.1e} / {:.1e} | {:.1e} |",
+                "| {} | {:.1e} | {} | {:.1e} / {:.1e} | {:.1e} |",
                 k + 1,
                 e.macro_stress,
-                e.wall_stress,
+                wall_cell(e.wall_stress),
                 e.displacement,
                 e.displacement_rms,
                 e.residual
@@ -475,6 +479,15 @@ pub fn markdown(scene: &str, reference: &Track, rows: &[StudyRow]) -> String {
         }
     }
     s
+}
+
+/// A wall stress error for the tables: none where the scene has no walls.
+fn wall_cell(error: f64) -> String {
+    if error.is_nan() {
+        "no walls".into()
+    } else {
+        format!("{error:.1e}")
+    }
 }
 
 #[cfg(test)]
