@@ -67,8 +67,9 @@ pub struct NewtonSettings {
     pub line_search: bool,
     /// Smallest regularisation factor.
     pub lambda_min: f64,
-    /// Keep the last factorisation while it contracts the residual well (chord steps): for
-    /// linear scenes, where the tangent hardly changes.
+    /// For linear scenes, where the tangent changes only where contacts slip, crack or
+    /// open: keep a Cholesky factorisation while it contracts the residual well (chord
+    /// steps), and an LU as GMRES's preconditioner while GMRES converges in a few solves.
     pub reuse_factorisation: bool,
     /// Largest step, in mean radii: the trust radius never exceeds it, so no grain jumps past
     /// contacts its friends lists cannot see.
@@ -139,8 +140,9 @@ const KRYLOV_TOLERANCE: f64 = 1e-6;
 
 /// GMRES iterations, each a solve with the kept LU factorisation, before the LU is made
 /// anew: on the 10,000-grain annulus an LU factorisation costs about sixteen of its solves.
-/// A Cholesky costs about three of its solves, so it is always made anew.
-const KRYLOV_ITERATIONS: usize = 12;
+/// GMRES's steps are Newton's, so the LU takes no chord steps. A Cholesky costs about three
+/// of its solves: it takes chord steps and is made anew where they stop contracting.
+const KRYLOV_ITERATIONS: usize = 16;
 
 /// Solve `R(u) = 0` starting from `u`; `u` holds the last iterate on return.
 pub fn solve(
@@ -184,7 +186,9 @@ pub fn solve(
     let mut last_step = 0.0;
     // A factorisation kept from an earlier solve is trusted only as a chord.
     let mut fresh_factor = false;
-    let mut chord = settings.reuse_factorisation && linear.is_factorized();
+    // A kept LU takes no chord steps: GMRES solves with it (see `KRYLOV_ITERATIONS`).
+    let chords = settings.reuse_factorisation && linear.kind() == LinearKind::Cholesky;
+    let mut chord = chords && linear.is_factorized();
 
     for iteration in 1..=settings.max_iterations {
         if rel <= settings.tolerance && last_step <= settings.displacement_tolerance {
@@ -380,7 +384,7 @@ pub fn solve(
                 }
             }
         }
-        chord = settings.reuse_factorisation && fresh_factor;
+        chord = chords && fresh_factor;
         out.history.push(rel);
     }
     if !out.converged
