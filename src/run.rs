@@ -2,6 +2,7 @@
 //! increments (and the last), report each increment, and on failure write the last converged
 //! state before returning the error.
 
+use crate::output::hdf5_file::read_history;
 use crate::output::{ResultFile, RunHeader};
 use crate::scene::{build_grains, Scene};
 use crate::simulation::Simulation;
@@ -141,8 +142,8 @@ impl std::fmt::Display for Failure {
 }
 
 /// Run the load program to its end, or, in a stage loaded until failure, to the increment
-/// that finds no equilibrium or shows its `failure_drop` (the peaks counted from where this
-/// call started). The state is written to `file` after every `every`-th increment, at the
+/// that finds no equilibrium or shows its `failure_drop` (the peaks counted over the stage's
+/// increments in `file` too, so that a resumed run remembers them). The state is written to `file` after every `every`-th increment, at the
 /// end of every stage and after the last increment; the numeric factorisation is refreshed
 /// at the same points (file or not), so a run resumed from a written increment repeats the
 /// same arithmetic. `on_increment` sees every converged increment. A failed increment writes the
@@ -155,7 +156,10 @@ pub fn run_to_end(
     mut on_increment: impl FnMut(&Simulation, &IncrementReport),
 ) -> Result<RunEnd, Error> {
     let mut unwritten: Option<IncrementReport> = None;
-    let mut peaks = PeakForces::default();
+    let mut peaks = match file.as_deref() {
+        Some(f) => PeakForces::written(f.path(), sim.state.stage)?,
+        None => PeakForces::default(),
+    };
     while !sim.is_finished() {
         let report = match sim.run_increment() {
             Ok(report) => report,
@@ -214,6 +218,28 @@ struct PeakForces {
 }
 
 impl PeakForces {
+    /// The peaks of stage `stage` over its increments written to the result file `path`.
+    fn written(path: &Path, stage: usize) -> Result<PeakForces, Error> {
+        let history = read_history(path)?;
+        let forces = history.wall("wall_normal_force");
+        let mut peak = Vec::new();
+        for (r, (&s, &k)) in history
+            .int("stage")
+            .iter()
+            .zip(history.int("stage_increment"))
+            .enumerate()
+        {
+            // The stage's start (stage increment 0) is not one of its increments.
+            if s as usize == stage && k > 0 {
+                peak.resize(forces[r].len(), 0.0);
+                for (p, f) in peak.iter_mut().zip(&forces[r]) {
+                    *p = f64::max(*p, *f);
+                }
+            }
+        }
+        Ok(PeakForces { stage, peak })
+    }
+
     /// The load drop that `report` shows, if its stage watches for one.
     fn drop(&mut self, sim: &Simulation, report: &IncrementReport) -> Option<FailureCause> {
         let stage = &sim.stages[report.stage];

@@ -372,3 +372,43 @@ fn the_crack_sequence_does_not_depend_on_the_increment_size() {
         );
     }
 }
+
+/// A run resumed after the peak remembers it: the beam resumed one increment before it
+/// fails (the failing increment deleted from its file) fails in the same increment, at the
+/// same force, from the same peak.
+#[test]
+fn a_resumed_bend_test_fails_from_the_peak_before_the_resume() {
+    let dir = tempfile::tempdir().unwrap();
+    let (box_, overhang) = prepared_beam(dir.path());
+    let (result, said) = bend_to_failure(dir.path(), box_, overhang, 100);
+    let written = grainstat::output::hdf5_file::read_increments(&result).unwrap();
+    let last = *written.last().unwrap();
+    hdf5::File::open_rw(&result)
+        .unwrap()
+        .group("increments")
+        .unwrap()
+        .unlink(&format!("{last:08}"))
+        .unwrap();
+    let scene = dir.path().join("bend-100.toml");
+    let out = common::grainstat(&[
+        "run",
+        scene.to_str().unwrap(),
+        "--resume",
+        result.to_str().unwrap(),
+        "--no-plot",
+        "--quiet",
+    ]);
+    let again = common::stderr(&out);
+    assert_eq!(out.status.code(), Some(0), "{again}");
+    let failure = |text: &str| {
+        text.lines()
+            .find(|l| l.contains("the sample failed"))
+            .map(str::to_string)
+    };
+    assert!(failure(&said).is_some(), "{said}");
+    assert_eq!(
+        failure(&again),
+        failure(&said),
+        "first run:\n{said}\nresumed:\n{again}"
+    );
+}
