@@ -34,6 +34,9 @@ pub struct CylinderRow {
     pub broken: usize,
     /// Bonds broken so far in the borehole region.
     pub broken_in_region: usize,
+    /// Bonds broken so far whose grains lie within 45 degrees of the radial direction of
+    /// each other: the bonds across cracks that run parallel to the borehole's surface.
+    pub broken_across_radius: usize,
 }
 
 /// What eqs. 34-37 predict for the cylinder.
@@ -182,17 +185,18 @@ impl CylinderFailure {
             let _ = writeln!(text, "| {name} | {} | {unit} |", significant(value));
         }
         text.push_str(
-            "\n| increment | pressure [Pa] | bonds broken | in the borehole region | share of the region's bonds |\n|---|---|---|---|---|\n",
+            "\n| increment | pressure [Pa] | bonds broken | in the borehole region | share of the region's bonds | across the radius (cracks parallel to the surface) |\n|---|---|---|---|---|---|\n",
         );
         for r in &self.rows {
             let _ = writeln!(
                 text,
-                "| {} | {} | {} | {} | {} |",
+                "| {} | {} | {} | {} | {} | {} |",
                 r.increment,
                 significant(r.pressure),
                 r.broken,
                 r.broken_in_region,
-                significant(r.broken_in_region as f64 / self.bonds_in_region.max(1) as f64)
+                significant(r.broken_in_region as f64 / self.bonds_in_region.max(1) as f64),
+                r.broken_across_radius
             );
         }
         if let Some(lame) = &self.lame {
@@ -224,16 +228,19 @@ impl CylinderFailure {
 
     /// The increments as CSV.
     pub fn csv(&self) -> String {
-        let mut text = String::from("increment,pressure,broken,broken_in_region,share_in_region\n");
+        let mut text = String::from(
+            "increment,pressure,broken,broken_in_region,share_in_region,broken_across_radius\n",
+        );
         for r in &self.rows {
             let _ = writeln!(
                 text,
-                "{},{:e},{},{},{:e}",
+                "{},{:e},{},{},{:e},{}",
                 r.increment,
                 r.pressure,
                 r.broken,
                 r.broken_in_region,
-                r.broken_in_region as f64 / self.bonds_in_region.max(1) as f64
+                r.broken_in_region as f64 / self.bonds_in_region.max(1) as f64,
+                r.broken_across_radius
             );
         }
         text
@@ -269,6 +276,21 @@ fn contact_radius(grains: &GrainSet, i: usize, j: usize, center: [f64; 2]) -> f6
     let (p, q) = (grains.position[i], grains.position[j]);
     let t = grains.radius[i] / (grains.radius[i] + grains.radius[j]);
     (p[0] + t * (q[0] - p[0]) - center[0]).hypot(p[1] + t * (q[1] - p[1]) - center[1])
+}
+
+/// Whether the line between grains `i` and `j` lies within 45 degrees of the radial
+/// direction from `center` through their contact: a crack between them runs along the
+/// circle about `center`.
+fn across_radius(grains: &GrainSet, i: usize, j: usize, center: [f64; 2]) -> bool {
+    let (p, q) = (grains.position[i], grains.position[j]);
+    let t = grains.radius[i] / (grains.radius[i] + grains.radius[j]);
+    let at = [
+        p[0] + t * (q[0] - p[0]) - center[0],
+        p[1] + t * (q[1] - p[1]) - center[1],
+    ];
+    let line = [q[0] - p[0], q[1] - p[1]];
+    let cos = (at[0] * line[0] + at[1] * line[1]) / (at[0].hypot(at[1]) * line[0].hypot(line[1]));
+    cos.abs() >= std::f64::consts::FRAC_1_SQRT_2
 }
 
 /// The failure of the cylinder test in `result`: `None` when the run is no cylinder test
@@ -329,6 +351,13 @@ pub fn cylinder_failure(result: &Path) -> Result<Option<CylinderFailure>, Error>
                 .filter(
                     |c| matches!(c.pair.a, Side::Grain(i) if in_region(&state.grains, i, c.pair.b)),
                 )
+                .count(),
+            broken_across_radius: broken
+                .iter()
+                .filter(|c| {
+                    matches!(c.pair.a, Side::Grain(i)
+                        if across_radius(&state.grains, i, c.pair.b, center))
+                })
                 .count(),
         });
         let row = rows.last().expect("pushed");
@@ -410,6 +439,7 @@ mod tests {
             pressure,
             broken,
             broken_in_region,
+            broken_across_radius: 0,
         };
         let failure = CylinderFailure {
             radii: [1.0, 3.0],
@@ -427,5 +457,19 @@ mod tests {
         };
         assert_eq!(failure.first_break(), Some(2e6));
         assert_eq!(failure.local_failure(), Some(4e6));
+    }
+
+    #[test]
+    fn a_bond_across_the_radius_is_one_a_crack_along_the_circle_parts() {
+        use crate::geometry::GrainSet;
+        // Two grains on the x axis (radial from the origin), two side by side at x = 2.
+        let grains = GrainSet::new(
+            vec![[2.0, 0.0], [2.2, 0.0], [2.0, 0.1], [2.0, -0.1]],
+            vec![0.1; 4],
+        );
+        assert!(across_radius(&grains, 0, 1, [0.0, 0.0]));
+        assert!(!across_radius(&grains, 2, 3, [0.0, 0.0]));
+        // Seen from a centre above them, the first pair is tangential.
+        assert!(!across_radius(&grains, 0, 1, [2.1, 5.0]));
     }
 }
