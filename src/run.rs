@@ -143,12 +143,12 @@ impl std::fmt::Display for Failure {
 
 /// Run the load program to its end, or, in a stage loaded until failure, to the increment
 /// that finds no equilibrium or shows its `failure_drop` (the peaks counted over the stage's
-/// increments in `file` too, so that a resumed run remembers them). The state is written to `file` after every `every`-th increment, at the
-/// end of every stage and after the last increment; the numeric factorisation is refreshed
-/// at the same points (file or not), so a run resumed from a written increment repeats the
-/// same arithmetic. `on_increment` sees every converged increment. A failed increment writes the
-/// last converged increment if it is not on file yet; it is an error unless its stage is
-/// loaded until failure.
+/// increments in `file` too, so that a resumed run remembers them). The state is written to
+/// `file` after every `every`-th increment, at the end of every stage and after the last
+/// increment; the numeric factorisation is refreshed at the same points (file or not), so a
+/// run resumed from a written increment repeats the same arithmetic. `on_increment` sees
+/// every converged increment. A failed increment writes the last converged increment if it
+/// is not on file yet; it is an error unless its stage is loaded until failure.
 pub fn run_to_end(
     sim: &mut Simulation,
     mut file: Option<&mut ResultFile>,

@@ -36,7 +36,8 @@ pub struct Counters {
     pub symbolic_factorisations: usize,
     /// Numeric factorisations.
     pub numeric_factorisations: usize,
-    /// Numeric factorisations skipped because a linear scene's matrix had not changed.
+    /// Steps solved with a kept factorisation instead of a new one: a linear scene's chord
+    /// steps with its Cholesky, and GMRES's steps with its kept LU.
     pub factorisations_reused: usize,
     /// Linear solves.
     pub solves: usize,
