@@ -27,7 +27,7 @@ fn scene(dir: &Path) -> PathBuf {
 }
 
 fn run(scene: &Path, out: &Path, resume: bool) -> Command {
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_grainstat"));
+    let mut cmd = common::grainstat_command();
     cmd.arg("run").arg(scene);
     cmd.arg(if resume { "--resume" } else { "-o" }).arg(out);
     cmd.args(["--quiet", "--no-plot"]);

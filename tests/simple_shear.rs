@@ -339,10 +339,8 @@ until_failure = true
     let path = dir.path().join("shear.toml");
     std::fs::write(&path, &text).unwrap();
     let (scene, _) = grainstat::scene::load_scene(&path).unwrap();
-    // The sample as prepared, not read back: a `grainstat` process another test starts may
-    // have inherited the file's descriptor, and with it HDF5's lock, until it exits.
-    let mut sim =
-        Simulation::from_sample(&scene, prepared.sample, SolverConfig::default(), "t").unwrap();
+    let sample = grainstat::sample::read_sample(dir.path().join("sand.h5")).unwrap();
+    let mut sim = Simulation::from_sample(&scene, sample, SolverConfig::default(), "t").unwrap();
     let start = sim.measure();
     let (mut rows, mut collapsed) = (Vec::new(), false);
     while !sim.is_finished() {

@@ -15,10 +15,28 @@ use std::process::{Command, Output};
 
 /// Run the `grainstat` binary with `args`.
 pub fn grainstat(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_grainstat"))
+    grainstat_command()
         .args(args)
         .output()
         .expect("grainstat runs")
+}
+
+/// The `grainstat` binary, started without the test process's open files. libhdf5 opens
+/// files without close-on-exec: a child started while another test of the binary has an
+/// HDF5 file open would hold that file's lock until it exits, and a test that opens the file
+/// meanwhile would find it locked.
+pub fn grainstat_command() -> Command {
+    use std::os::unix::process::CommandExt;
+    let mut command = Command::new(env!("CARGO_BIN_EXE_grainstat"));
+    // SAFETY: between fork and exec, only closes this child's descriptors from 3 up (its
+    // standard streams are already in place); nothing it runs needs the others.
+    unsafe {
+        command.pre_exec(|| {
+            libc::syscall(libc::SYS_close_range, 3u32, u32::MAX, 0u32);
+            Ok(())
+        });
+    }
+    command
 }
 
 /// What a run printed on standard error.
