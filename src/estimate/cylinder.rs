@@ -271,11 +271,20 @@ pub fn lame_free_borehole(a: f64, b: f64, r: f64) -> [f64; 2] {
     [outer * (1.0 - q), outer * (1.0 + q)]
 }
 
-/// Distance from `center` of the contact point between grains `i` and `j`.
-fn contact_radius(grains: &GrainSet, i: usize, j: usize, center: [f64; 2]) -> f64 {
+/// The contact point between grains `i` and `j`, from `center`.
+fn contact_point(grains: &GrainSet, i: usize, j: usize, center: [f64; 2]) -> [f64; 2] {
     let (p, q) = (grains.position[i], grains.position[j]);
     let t = grains.radius[i] / (grains.radius[i] + grains.radius[j]);
-    (p[0] + t * (q[0] - p[0]) - center[0]).hypot(p[1] + t * (q[1] - p[1]) - center[1])
+    [
+        p[0] + t * (q[0] - p[0]) - center[0],
+        p[1] + t * (q[1] - p[1]) - center[1],
+    ]
+}
+
+/// Distance from `center` of the contact point between grains `i` and `j`.
+fn contact_radius(grains: &GrainSet, i: usize, j: usize, center: [f64; 2]) -> f64 {
+    let at = contact_point(grains, i, j, center);
+    at[0].hypot(at[1])
 }
 
 /// Whether the line between grains `i` and `j` lies within 45 degrees of the radial
@@ -283,11 +292,7 @@ fn contact_radius(grains: &GrainSet, i: usize, j: usize, center: [f64; 2]) -> f6
 /// circle about `center`.
 fn across_radius(grains: &GrainSet, i: usize, j: usize, center: [f64; 2]) -> bool {
     let (p, q) = (grains.position[i], grains.position[j]);
-    let t = grains.radius[i] / (grains.radius[i] + grains.radius[j]);
-    let at = [
-        p[0] + t * (q[0] - p[0]) - center[0],
-        p[1] + t * (q[1] - p[1]) - center[1],
-    ];
+    let at = contact_point(grains, i, j, center);
     let line = [q[0] - p[0], q[1] - p[1]];
     let cos = (at[0] * line[0] + at[1] * line[1]) / (at[0].hypot(at[1]) * line[0].hypot(line[1]));
     cos.abs() >= std::f64::consts::FRAC_1_SQRT_2
