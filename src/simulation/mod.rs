@@ -250,6 +250,41 @@ impl Simulation {
         }
     }
 
+    /// The matrix the next increment's first Newton step factorises with a solver of `kind`,
+    /// on the simulation's pattern: the tangent of that increment's load step at the committed
+    /// state (the symmetric, elasto-plastic one for a Cholesky, the consistent one for an LU),
+    /// regularised as Newton regularises it with `lambda` (at least the scene's `lambda_min`).
+    /// For timing the factorisations of a sample's own matrix (`examples/factorisation.rs`);
+    /// the simulation is left ready for that increment.
+    pub fn next_tangent(
+        &mut self,
+        kind: LinearKind,
+        lambda: f64,
+    ) -> Result<(Arc<Pattern>, Vec<f64>), NumericError> {
+        self.apply_stage_controls()?;
+        self.apply_glue()?;
+        let step = self.next_load_step();
+        self.carriers = membrane_carriers(self.state.grains.len(), &self.state.contacts.contacts);
+        self.anchors = anchors(
+            &self.state.grains,
+            &self.state.walls,
+            &self.state.contacts.contacts,
+        );
+        self.refresh_chains(false)?;
+        let consistent = std::mem::replace(&mut self.consistent, kind == LinearKind::Lu);
+        let pattern = Arc::clone(&self.pattern);
+        let lambda = lambda.max(self.config.lambda_min);
+        let u = vec![0.0; self.dofs.len];
+        let mut residual = vec![0.0; self.dofs.len];
+        let mut values = vec![0.0; pattern.nnz()];
+        let mut eq = self.equations(&step);
+        eq.symmetric = kind == LinearKind::Cholesky;
+        let evaluated = eq.evaluate(&u, &mut residual, Some(&mut values));
+        let regularised = newton::regularise(&eq, &values, &pattern.diagonal, lambda);
+        self.consistent = consistent;
+        evaluated.map(|()| (pattern, regularised))
+    }
+
     /// One load increment, as the pipeline reads: apply the increment, then solve it (Newton
     /// with topology passes, halving it when that fails), commit, measure.
     pub fn run_increment(&mut self) -> Result<IncrementReport, NumericError> {

@@ -405,7 +405,12 @@ pub fn solve(
 /// have one and `u_i` the unit of row `i`. A row without stiffness (a rattler, a rotation with
 /// only frictionless contacts, a just-touching Hertz contact) also gets `1e-6 k u_i`: its
 /// residual is zero or its step is truncated, so the answer does not change.
-fn regularise(eq: &dyn Equations, values: &[f64], diagonal: &[usize], lambda: f64) -> Vec<f64> {
+pub(crate) fn regularise(
+    eq: &dyn Equations,
+    values: &[f64],
+    diagonal: &[usize],
+    lambda: f64,
+) -> Vec<f64> {
     let mut out = values.to_vec();
     let (mut sum, mut count) = (0.0, 0usize);
     for (dof, &s) in diagonal.iter().enumerate() {
