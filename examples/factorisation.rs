@@ -1,9 +1,10 @@
 //! One factorisation of a run's own matrix, by kind: the sample of a result file at one of its
 //! written increments (the last by default), the tangent the next increment's first Newton
 //! step factorises (`Simulation::next_tangent`), then its Cholesky (the symmetric,
-//! elasto-plastic tangent) and its LU (the consistent tangent), each analysed once, regularised
-//! as Newton would until it factorises (`lambda`), and factorised and solved `--repeats` times. Prints a markdown table of the fastest and the
-//! median time of each, to set a run's time per increment against.
+//! elasto-plastic tangent) and its LU (the consistent tangent). Each is analysed once,
+//! regularised as Newton would until it factorises (`lambda`), then factorised and solved
+//! `--repeats` times. Prints a markdown table of the fastest and the median time of each, to
+//! set a run's time per increment against.
 //!
 //!     cargo run --release --example factorisation -- results/cylinder-test-10000.h5
 //!     cargo run --release --example factorisation -- RESULT.h5 --increment 14 --repeats 20
