@@ -264,14 +264,9 @@ impl Simulation {
         self.apply_stage_controls()?;
         self.apply_glue()?;
         let step = self.next_load_step();
-        self.carriers = membrane_carriers(self.state.grains.len(), &self.state.contacts.contacts);
-        self.anchors = anchors(
-            &self.state.grains,
-            &self.state.walls,
-            &self.state.contacts.contacts,
-        );
-        self.refresh_chains(false)?;
-        let consistent = std::mem::replace(&mut self.consistent, kind == LinearKind::Lu);
+        self.start_step();
+        self.start_newton()?;
+        self.consistent = kind == LinearKind::Lu;
         let pattern = Arc::clone(&self.pattern);
         let lambda = lambda.max(self.config.lambda_min);
         let u = vec![0.0; self.dofs.len];
@@ -281,7 +276,7 @@ impl Simulation {
         eq.symmetric = kind == LinearKind::Cholesky;
         let evaluated = eq.evaluate(&u, &mut residual, Some(&mut values));
         let regularised = newton::regularise(&eq, &values, &pattern.diagonal, lambda);
-        self.consistent = consistent;
+        self.consistent = false;
         evaluated.map(|()| (pattern, regularised))
     }
 
@@ -495,10 +490,7 @@ impl Simulation {
         report: &mut IncrementReport,
         settle: bool,
     ) -> Result<(Vec<f64>, TopologyChange), NumericError> {
-        self.reopened.clear();
-        self.remade.clear();
-        self.chains_held = false;
-        self.carriers = membrane_carriers(self.state.grains.len(), &self.state.contacts.contacts);
+        self.start_step();
         if self.config.strategy == Strategy::Relaxation {
             // Grain by grain, each block is solved with its neighbours held, so nothing need
             // hold the sample as a whole; an anchor would carry the load the sweeps have not
@@ -506,18 +498,9 @@ impl Simulation {
             self.anchors.clear();
             return self.relax_step(step, report);
         }
-        self.anchors = anchors(
-            &self.state.grains,
-            &self.state.walls,
-            &self.state.contacts.contacts,
-        );
+        self.start_newton()?;
         let mut u = vec![0.0; self.dofs.len];
         let mut total = TopologyChange::default();
-        // The membranes start on the grains that are outermost in the committed state, and
-        // Newton's trust radius at the scale of the overlaps.
-        self.refresh_chains(false)?;
-        self.trust = None;
-        self.consistent = false;
         if settle {
             // Passes of settling, each until rest or until the friends lists must be made
             // anew; contacts are made between them, lost ones are left to Newton.
@@ -602,6 +585,30 @@ impl Simulation {
             worst_grain: 0,
             cuts: 0,
         })
+    }
+
+    /// What every solve of a step starts from: no contact reopened or remade yet, the
+    /// membranes' chains free to change, and the carriers of the committed state.
+    fn start_step(&mut self) {
+        self.reopened.clear();
+        self.remade.clear();
+        self.chains_held = false;
+        self.carriers = membrane_carriers(self.state.grains.len(), &self.state.contacts.contacts);
+    }
+
+    /// What the global solve of a step adds: anchors on the committed contacts, the membranes
+    /// on the grains that are outermost in the committed state, Newton's trust radius at the
+    /// scale of the overlaps, and the scene's own tangent.
+    fn start_newton(&mut self) -> Result<(), NumericError> {
+        self.anchors = anchors(
+            &self.state.grains,
+            &self.state.walls,
+            &self.state.contacts.contacts,
+        );
+        self.refresh_chains(false)?;
+        self.trust = None;
+        self.consistent = false;
+        Ok(())
     }
 
     /// Solve the rest of the increment with the consistent tangent, if the scene's solver is
