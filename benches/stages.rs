@@ -142,6 +142,14 @@ fn stages(c: &mut Criterion) {
             stiffness_hint: material.stiffness_hint(r_mean),
             far: false,
             load_scale: 0.0,
+            lagged: false,
+            refreeze: false,
+            projected: false,
+            loads: Vec::new(),
+            stale_pattern: false,
+            chain_changes: 0,
+            consistent: false,
+            energy: 0.0,
         };
         // Assembled once here, so the factorisation has its matrix when run alone.
         eq.evaluate(&u, &mut residual, Some(&mut values)).unwrap();

@@ -101,6 +101,22 @@ pub enum NumericError {
         /// How often the increment was halved.
         cuts: u32,
     },
+    /// No equilibrium near the last one: the minimisation carried some grains on by more than
+    /// their diameter while the potential kept falling (method note, step 4).
+    #[error(
+        "no equilibrium near in increment {increment}: {} grain(s) moved more than their \
+         diameter while the potential kept falling (first: {}), residual {residual:.2e}",
+        grains.len(),
+        grains.iter().take(8).map(|g| g.to_string()).collect::<Vec<_>>().join(", ")
+    )]
+    NoEquilibrium {
+        /// The load increment (1-based).
+        increment: usize,
+        /// `|R|_inf / F_ref` where it stopped.
+        residual: f64,
+        /// The grains carried on.
+        grains: Vec<usize>,
+    },
     /// A stage produced NaN or infinity.
     #[error("{what} is not finite at {place}")]
     NotFinite {

@@ -548,7 +548,7 @@ fn summary(sim: &Simulation) -> String {
         c.increments,
         c.newton_iterations,
         match sim.config.strategy {
-            Strategy::Newton => "Newton iterations",
+            Strategy::Newton | Strategy::Minimise => "Newton iterations",
             Strategy::Relaxation => "sweeps",
         },
         c.symbolic_factorisations,

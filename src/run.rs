@@ -175,7 +175,9 @@ pub fn run_to_end(
                 let stage = &sim.stages[sim.state.stage];
                 let no_equilibrium = matches!(
                     err,
-                    NumericError::NotConverged { .. } | NumericError::Singular { .. }
+                    NumericError::NotConverged { .. }
+                        | NumericError::NoEquilibrium { .. }
+                        | NumericError::Singular { .. }
                 );
                 if stage.until_failure && no_equilibrium {
                     let cause = FailureCause::NoEquilibrium(err);

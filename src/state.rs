@@ -28,6 +28,9 @@ pub struct State {
     pub friends_reference: Vec<[f64; 2]>,
     /// Wall positions (normal, along) when the friends lists were last made.
     pub friends_wall_reference: Vec<[f64; 2]>,
+    /// Each unknown's displacement in the last increment of the current stage (empty at a
+    /// stage's start): the predictor the next increment starts from.
+    pub last_step: Vec<f64>,
 }
 
 /// What one converged increment reports: the state's measurements and how the solver did.
@@ -81,6 +84,7 @@ impl State {
             stage_increment: 0,
             friends_reference: grains.position.clone(),
             friends_wall_reference: walls.walls.iter().map(|w| [w.position, w.slide]).collect(),
+            last_step: Vec::new(),
             grains,
             walls,
             contacts,
@@ -164,6 +168,7 @@ mod tests {
             },
             friends_reference: vec![[0.0; 2]; 3],
             friends_wall_reference: vec![[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]],
+            last_step: Vec::new(),
             membranes: Vec::new(),
         };
         state.keep_walls(&["bottom", "top"]);

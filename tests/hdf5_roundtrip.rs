@@ -68,6 +68,7 @@ fn params(friction: f64) -> ContactParams {
 
 fn contact(pair: Pair, p: ContactParams, k: f64) -> Contact {
     let shear = 0.1 * k - 3.0e-17;
+    let overlap = 1.0e-8 * k + 5e-324;
     Contact {
         pair,
         params: p,
@@ -84,8 +85,11 @@ fn contact(pair: Pair, p: ContactParams, k: f64) -> Contact {
             dfs_dn: -2.5e-3 * k,
             dfs_ds: 9.545454545454546e7,
         },
-        overlap: 1.0e-8 * k + 5e-324,
+        overlap,
         shear_increment: 0.0,
+        start_overlap: overlap,
+        lag: Default::default(),
+        energy: 0.0,
     }
 }
 
@@ -185,6 +189,7 @@ fn state(k: usize) -> State {
         friends_reference: position,
         membranes: Vec::new(),
         friends_wall_reference: vec![[0.0, 0.0], [0.0, -1e-7], [1e-6, 0.0], [0.0, 0.0]],
+        last_step: vec![1e-9, -2e-9, 3e-5],
     }
 }
 

@@ -14,6 +14,19 @@
 use super::PairMap;
 use crate::contact::{Kinematics, Response};
 
+/// Which tangent a contact's block gives.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BlockTangent {
+    /// `-df/dq` in full: unsymmetric.
+    Consistent,
+    /// Its symmetric part (`S` taken as `B_t`, `H` by its symmetric part).
+    Symmetric,
+    /// The symmetric part projected to positive semi-definite: the geometric terms left out
+    /// where they soften (`F_n G` under compression, `F_s H` always), so every block is a sum
+    /// of `k b b^T` with `k >= 0`. The minimisation's Hessian.
+    Projected,
+}
+
 /// A contact's force on, and stiffness of, the unknowns it touches.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct LocalBlock {
@@ -24,7 +37,14 @@ pub struct LocalBlock {
 }
 
 /// The force and tangent of one contact, reduced to the unknowns of `map`.
-pub fn contact_block(k: &Kinematics, r: &Response, map: &PairMap, symmetric: bool) -> LocalBlock {
+pub fn contact_block(
+    k: &Kinematics,
+    r: &Response,
+    map: &PairMap,
+    tangent: BlockTangent,
+) -> LocalBlock {
+    let symmetric = tangent != BlockTangent::Consistent;
+    let projected = tangent == BlockTangent::Projected;
     let (n, t) = (k.normal, k.tangent);
     let bn = [n[0], n[1], 0.0, -n[0], -n[1], 0.0];
     let bt = [-t[0], -t[1], -k.radius_a, t[0], t[1], -k.radius_b];
@@ -47,14 +67,19 @@ pub fn contact_block(k: &Kinematics, r: &Response, map: &PairMap, symmetric: boo
                 r.dfn_dn * bn[a] * bn[b] + r.dfs_dn * bt[a] * bn[b] + r.dfs_ds * bt[a] * s[b];
         }
     }
-    if !k.flat {
+    // `-F_n / d` is the sign of G's block on the centres: it stiffens in tension, or
+    // against a concave ring (negative distance).
+    let softens = projected && r.normal_force / k.distance > 0.0;
+    if !k.flat && !softens {
         // Geometric terms on the centre entries: blocks [[-X, X], [X, -X]] for G and
         // [[X, -X], [-X, X]] for H, with X the 2x2 term.
         let d = k.distance;
         for p in 0..2 {
             for q in 0..2 {
                 let gpq = r.normal_force * t[p] * t[q] / d;
-                let hpq = if symmetric {
+                let hpq = if projected {
+                    0.0
+                } else if symmetric {
                     -0.5 * r.shear_force * (n[p] * t[q] + t[p] * n[q]) / d
                 } else {
                     -r.shear_force * n[p] * t[q] / d

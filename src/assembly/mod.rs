@@ -8,7 +8,7 @@
 
 mod local;
 
-pub use local::{contact_block, LocalBlock};
+pub use local::{contact_block, BlockTangent, LocalBlock};
 
 use crate::geometry::{Chain, FriendSet, Pair, Side, WallSet};
 use crate::parallel;

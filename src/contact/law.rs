@@ -53,6 +53,11 @@ pub trait ContactLaw: Send + Sync {
     /// Shear stiffness `k_s` and `dk_s/dn` at overlap `n`.
     fn shear_stiffness(&self, p: &ContactParams, n: f64) -> (f64, f64);
 
+    /// Normal energy `integral of F_n dn` from first touch to overlap `n`: the potential whose
+    /// derivative is [`ContactLaw::normal`] where the contact touches or is bonded (zero
+    /// for an unbonded contact apart).
+    fn normal_energy(&self, p: &ContactParams, n: f64, bonded: bool) -> f64;
+
     /// Smallest normal tangent worth offering Newton while it is far from the answer, for a
     /// contact expected to carry about `force_scale`: a law whose stiffness vanishes at first
     /// touch says how stiff such a contact will be; the others need no floor.
@@ -114,13 +119,22 @@ pub trait ContactLaw: Send + Sync {
 
 /// Linear springs with tension while bonded (eqs. 8-12): `F_n = k_n n`, `k_s = kappa k_n`.
 /// Within one Newton pass an unbonded contact keeps its spring in tension too, so that the
-/// equations stay smooth; the topology pass then removes it (method note, step 3).
+/// equations stay smooth; the topology pass then removes it (method note, step 3). The
+/// minimisation takes an unbonded contact apart as carrying nothing (see
+/// [`ContactLaw::normal_energy`]).
 #[derive(Debug, Clone, Copy, Default)]
 pub struct LinearCohesive;
 
 impl ContactLaw for LinearCohesive {
     fn normal(&self, p: &ContactParams, n: f64, _bonded: bool) -> (f64, f64) {
         (p.stiffness * n, p.stiffness)
+    }
+
+    fn normal_energy(&self, p: &ContactParams, n: f64, bonded: bool) -> f64 {
+        if n <= 0.0 && !bonded {
+            return 0.0;
+        }
+        0.5 * p.stiffness * n * n
     }
 
     fn shear_stiffness(&self, p: &ContactParams, _n: f64) -> (f64, f64) {
@@ -142,6 +156,14 @@ impl ContactLaw for HertzMindlin {
         (p.stiffness * n * root, 1.5 * p.stiffness * root)
     }
 
+    /// `2/5 M n^(5/2)`: C2 at first touch.
+    fn normal_energy(&self, p: &ContactParams, n: f64, _bonded: bool) -> f64 {
+        if n <= 0.0 {
+            return 0.0;
+        }
+        0.4 * p.stiffness * n * n * n.sqrt()
+    }
+
     fn shear_stiffness(&self, p: &ContactParams, n: f64) -> (f64, f64) {
         if n <= 0.0 {
             return (0.0, 0.0);
@@ -156,6 +178,51 @@ impl ContactLaw for HertzMindlin {
     /// The tangent `1.5 M^(2/3) F^(1/3)` of a contact carrying the force scale.
     fn tangent_floor(&self, p: &ContactParams, force_scale: f64) -> f64 {
         1.5 * p.stiffness.powf(2.0 / 3.0) * force_scale.cbrt()
+    }
+}
+
+/// Coulomb friction as a potential (method note, step 2): with the shear stiffness `k_s` and
+/// the limit `f N` held fixed, the shear force `clamp(F_s0 + k_s s, -f N, f N)` is the
+/// derivative of a convex C1 function of the shear displacement `s`, its curvature `k_s`
+/// while sticking and 0 while sliding. The return map of the thesis is its value.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Friction {
+    /// Shear force `F_s` (N).
+    pub force: f64,
+    /// `dF_s / ds`: `k_s` sticking, 0 sliding.
+    pub stiffness: f64,
+    /// The potential `integral of F_s ds` from 0 to `s` (J).
+    pub energy: f64,
+    /// Whether the force is on the limit.
+    pub sliding: bool,
+}
+
+/// The friction potential at shear displacement `s` from the committed shear force `force0`,
+/// with stiffness `stiffness` and limit `limit` (`INFINITY`: no slip) held.
+pub fn friction(force0: f64, stiffness: f64, limit: f64, s: f64) -> Friction {
+    // `C(a)`, the integral of clamp(x, -L, L) from 0 to a; the energy is
+    // (C(F_s0 + k s) - C(F_s0)) / k, or s clamp(F_s0) without stiffness.
+    let clamp = |a: f64| a.clamp(-limit, limit);
+    let integral = |a: f64| {
+        if a.abs() <= limit {
+            0.5 * a * a
+        } else {
+            limit * a.abs() - 0.5 * limit * limit
+        }
+    };
+    let trial = force0 + stiffness * s;
+    // Without a limit (a contact apart) there is nothing to stick with.
+    let sliding = trial.abs() > limit || limit <= 0.0;
+    let energy = if stiffness > 0.0 {
+        (integral(trial) - integral(force0)) / stiffness
+    } else {
+        s * clamp(force0)
+    };
+    Friction {
+        force: clamp(trial),
+        stiffness: if sliding { 0.0 } else { stiffness },
+        energy,
+        sliding,
     }
 }
 
@@ -198,6 +265,55 @@ mod tests {
         assert!((r.shear_force - 0.5 * 100.0).abs() < 1e-12);
         assert_eq!(r.dfs_ds, 0.0);
         assert!((r.dfs_dn - 0.5 * 1e8).abs() < 1e-6);
+    }
+
+    #[test]
+    fn friction_force_is_the_derivative_of_its_potential() {
+        let h = 1e-9;
+        for (f0, k, limit) in [
+            (0.3, 2.0, 1.0),
+            (-0.8, 5.0, 1.0),
+            (1.5, 1.0, 1.0),
+            (0.2, 0.0, 0.5),
+        ] {
+            for s in [-0.7, -0.1, 0.0, 0.05, 0.4, 0.9] {
+                let f = friction(f0, k, limit, s);
+                let fd = (friction(f0, k, limit, s + h).energy
+                    - friction(f0, k, limit, s - h).energy)
+                    / (2.0 * h);
+                assert!(
+                    (fd - f.force).abs() < 1e-6,
+                    "f0 {f0} k {k} s {s}: {fd} vs {}",
+                    f.force
+                );
+                assert!(f.force.abs() <= limit);
+            }
+        }
+    }
+
+    #[test]
+    fn normal_force_is_the_derivative_of_its_energy() {
+        let p = ContactParams {
+            stiffness: 3e9,
+            ..params()
+        };
+        let laws: [&dyn ContactLaw; 2] = [&HertzMindlin, &LinearCohesive];
+        for law in laws {
+            for bonded in [false, true] {
+                for n in [-2e-7, 1e-8, 2e-7] {
+                    let h = 1e-12;
+                    let fd = (law.normal_energy(&p, n + h, bonded)
+                        - law.normal_energy(&p, n - h, bonded))
+                        / (2.0 * h);
+                    let (f, _) = if n > 0.0 || bonded {
+                        law.normal(&p, n, bonded)
+                    } else {
+                        (0.0, 0.0)
+                    };
+                    assert!((fd - f).abs() <= 1e-6 * f.abs().max(1e-3), "{fd} vs {f}");
+                }
+            }
+        }
     }
 
     #[test]

@@ -8,8 +8,8 @@ mod law;
 
 pub use kinematics::{Configuration, Kinematics};
 pub use law::{
-    hertz_stiffness, kappa, mean_radius, ContactLaw, ContactParams, HertzMindlin, LinearCohesive,
-    Response, SlipTangent,
+    friction, hertz_stiffness, kappa, mean_radius, ContactLaw, ContactParams, Friction,
+    HertzMindlin, LinearCohesive, Response, SlipTangent,
 };
 
 use crate::geometry::{Pair, Side};
@@ -72,6 +72,33 @@ pub struct Contact {
     pub overlap: f64,
     /// The current shear displacement of this increment (m).
     pub shear_increment: f64,
+    /// Overlap at the start of the increment (m): a pair apart then counts its shear from
+    /// where its surfaces touched.
+    pub start_overlap: f64,
+    /// What the minimisation of the increment holds fixed between two refreezes.
+    pub lag: Lag,
+    /// The contact's potential at the current response, with the lag held (J).
+    pub energy: f64,
+}
+
+/// The part of a contact's response that the minimisation of an increment lags (method
+/// note, step 2): frozen at an accepted iterate, held along the line search that follows,
+/// so the friction force is the derivative of a potential.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Lag {
+    /// Shear stiffness `k_s` (N/m).
+    pub shear_stiffness: f64,
+    /// Coulomb limit `f N` (N); `INFINITY` while bonded or with infinite friction.
+    pub limit: f64,
+    /// Overlap at the last refreeze (m).
+    pub overlap: f64,
+    /// Whether a pair apart at the start of the increment has been found touching: its
+    /// shear then counts from the touching point found then.
+    pub touched: bool,
+    /// Whether the overlap fell by half or more since the refreeze before: a Hertz contact
+    /// unloading towards zero then gets its secant stiffness `F/n`, which reaches zero in one
+    /// step, where the tangent `1.5 F/n` only divides the overlap by three.
+    pub unloading: bool,
 }
 
 impl Contact {
@@ -88,6 +115,9 @@ impl Contact {
             response: Response::default(),
             overlap: 0.0,
             shear_increment: 0.0,
+            start_overlap: 0.0,
+            lag: Lag::default(),
+            energy: 0.0,
         }
     }
 
@@ -109,6 +139,14 @@ impl Contact {
     /// limit it holds. A bond with a wall is glue ([`ContactSet::glued`]): the grain moves
     /// with the wall, so the bond carries nothing that changes, and it holds.
     pub fn bond_failure(&self) -> Option<BreakMode> {
+        self.bond_overload().map(|(_, mode)| mode)
+    }
+
+    /// How far past its strength an intact bond is, as the ratio of its force to what it can
+    /// carry (above 1), and how it fails: `-F_n / F_t` in tension (eq. 12), `|F_s| / (f F_n +
+    /// F_t)` in shear (eq. 11); the larger counts. `None` while it holds (see
+    /// [`Contact::bond_failure`]).
+    pub fn bond_overload(&self) -> Option<(f64, BreakMode)> {
         if !self.bonded || matches!(self.pair.a, Side::Wall(_)) {
             return None;
         }
@@ -119,12 +157,11 @@ impl Contact {
         } else {
             self.params.friction * fn_ + ft
         };
-        if fn_ < -ft {
-            Some(BreakMode::Tension)
-        } else if fs.abs() > shear_limit {
-            Some(BreakMode::Shear)
-        } else {
-            None
+        let tension = (fn_ < -ft).then(|| (-fn_ / ft, BreakMode::Tension));
+        let shear = (fs.abs() > shear_limit).then(|| (fs.abs() / shear_limit, BreakMode::Shear));
+        match (tension, shear) {
+            (Some(t), Some(s)) => Some(if s.0 > t.0 { s } else { t }),
+            (t, s) => t.or(s),
         }
     }
 
@@ -135,6 +172,7 @@ impl Contact {
 
     /// Make the converged response the new history.
     pub fn commit(&mut self) {
+        self.start_overlap = self.overlap;
         self.shear_force0 = self.response.shear_force;
         self.shear_displacement0 += self.shear_increment;
         self.shear_offset = 0.0;

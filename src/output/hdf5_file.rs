@@ -1225,6 +1225,7 @@ fn write_group_state(g: &Group, state: &State, report: &IncrementReport) -> R<()
         "wall_reference",
         ArrayView2::from(&state.friends_wall_reference[..]),
     )?;
+    put(g, "last_step", ArrayView1::from(&state.last_step[..]))?;
 
     let count = |v: usize| v as i64;
     set_attr(g, "increment", &count(state.increment))?;
@@ -1315,6 +1316,9 @@ fn read_group_state(g: &Group, h: &RunHeader) -> R<State> {
             },
             overlap: overlap[k],
             shear_increment: 0.0,
+            start_overlap: overlap[k],
+            lag: Default::default(),
+            energy: 0.0,
         });
     }
 
@@ -1357,6 +1361,11 @@ fn read_group_state(g: &Group, h: &RunHeader) -> R<State> {
         },
         friends_reference: read_rows::<f64, 2>(&friends, "reference", None)?,
         friends_wall_reference: read_rows::<f64, 2>(&friends, "wall_reference", None)?,
+        last_step: if g.link_exists("last_step") {
+            read_vec::<f64>(g, "last_step", None)?
+        } else {
+            Vec::new()
+        },
         membranes,
     })
 }

@@ -1,14 +1,17 @@
 //! The equilibrium equations of one load increment: residual `R = f_ext + f_contact` on every
 //! unknown, and the tangent `K = -dR/du`, assembled into the fixed pattern.
 
-use crate::assembly::{contact_block, DofMap, PairMap, Pattern};
-use crate::contact::{kinematics, Configuration, Contact, ContactLaw, Kinematics, SlipTangent};
+use crate::assembly::{contact_block, BlockTangent, DofMap, PairMap, Pattern};
+use crate::contact::{
+    friction, kinematics, Configuration, Contact, ContactLaw, Kinematics, Response, SlipTangent,
+};
 use crate::geometry::{
     chains, extent_along, rotate, Chain, FriendSet, GrainSet, Membrane, MembraneShape, Pair, Side,
     WallSet,
 };
 use crate::parallel;
 use crate::simulation::MaterialModel;
+use crate::solver::minimise::Potential;
 use crate::solver::stats::{secs, StageTimers};
 use crate::solver::Equations;
 use crate::NumericError;
@@ -250,7 +253,38 @@ pub struct IncrementEquations<'a> {
     pub far: bool,
     /// Wall load per grain touching a loaded wall (N): the force scale before contacts carry.
     pub load_scale: f64,
+    /// Whether the contacts respond as in the minimisation of the increment: friction with
+    /// its normal force and shear stiffness lagged ([`crate::contact::Lag`]), every pair of
+    /// the friends lists a contact that carries only while it touches or is bonded.
+    pub lagged: bool,
+    /// Whether this evaluation refreezes the lag (and the membranes' chains) first.
+    pub refreeze: bool,
+    /// Whether the tangent is the projected, positive semi-definite Hessian: geometric terms
+    /// that soften (a compressed contact's rotating normal, the shear's, a pressure's) left
+    /// out.
+    pub projected: bool,
+    /// The loads of the last evaluation: walls, membranes and the springs on free motions.
+    pub loads: Vec<f64>,
+    /// Whether a refreeze found a membrane chain the pattern does not couple.
+    pub stale_pattern: bool,
+    /// Chain changes found by refreezes; past [`CHAIN_CHANGES`] the chains are held.
+    pub chain_changes: usize,
+    /// Whether a lagged evaluation gives the consistent tangent of the true residual: a
+    /// sliding contact's friction following its normal force, unsymmetric.
+    pub consistent: bool,
+    /// Stored energy of the contacts at the last evaluation (J).
+    pub energy: f64,
 }
+
+/// Share of the force scale whose Hertz stiffness a touching contact's Hessian gets at least:
+/// small enough that a contact carrying more than the tolerance has its own.
+const FLOOR_FORCE: f64 = 1e-8;
+
+/// Refreezes of one minimisation that may change a membrane's chain before the chains are
+/// held as they are: a grain on the probe's line has no equilibrium in or out of the chain
+/// (loaded, it is pushed inside and left out; unloaded, it springs back and is taken in).
+/// Held, the chain loads that grain or passes over it as the last change decided.
+pub const CHAIN_CHANGES: usize = 5;
 
 impl IncrementEquations<'_> {
     /// Wall lines, positions and rotations for increment displacements `u` (walls first: a
@@ -385,6 +419,10 @@ impl IncrementEquations<'_> {
         if self.is_glue(c.pair) {
             return k;
         }
+        if self.lagged {
+            self.respond_lagged(c, &k);
+            return k;
+        }
         c.overlap = k.overlap;
         c.shear_increment = k.shear_increment - c.shear_offset;
         c.response = self.law.respond(
@@ -415,11 +453,138 @@ impl IncrementEquations<'_> {
         k
     }
 
+    /// The response of contact `c` in the minimisation (method note, step 2): the normal
+    /// force from the overlap, the friction from the lagged potential, and the contact's
+    /// potential. A refreeze first takes the lag from here: the shear stiffness, the Coulomb
+    /// limit `f N`, and, for a pair apart at the start of the increment, the shear made before
+    /// its surfaces touched on the straight way from there to here.
+    fn respond_lagged(&self, c: &mut Contact, k: &Kinematics) {
+        let n = k.overlap;
+        c.overlap = n;
+        // Unbonded, a contact apart carries nothing.
+        let (normal_force, mut dfn_dn) = if n > 0.0 || c.bonded {
+            self.law.normal(&c.params, n, c.bonded)
+        } else {
+            (0.0, 0.0)
+        };
+        if self.refreeze {
+            let lag = &mut c.lag;
+            lag.unloading = lag.overlap > 0.0 && n <= 0.5 * lag.overlap;
+            lag.overlap = n;
+            lag.shear_stiffness = self.law.shear_stiffness(&c.params, n).0;
+            lag.limit = if c.bonded || c.params.friction.is_infinite() {
+                f64::INFINITY
+            } else {
+                c.params.friction * normal_force.max(0.0)
+            };
+            // Taken once, where the contact is first found touching: taken anew at every
+            // refreeze it would follow the iterate, and the lag would converge only linearly.
+            if c.start_overlap < 0.0 && !c.bonded && !(lag.touched && n > 0.0) {
+                lag.touched = n > 0.0;
+                c.shear_offset = if n > 0.0 {
+                    k.shear_increment * c.start_overlap / (c.start_overlap - n)
+                } else {
+                    k.shear_increment
+                };
+            }
+        }
+        let tangent = dfn_dn;
+        if c.lag.unloading && n > 0.0 {
+            dfn_dn = normal_force / n;
+        }
+        // A contact that (almost) only touches has (almost) no stiffness: a step from it
+        // would drive its grains deep into each other. Its Hessian gets at least the
+        // stiffness it has carrying a negligible share of the force scale.
+        let floor = if n > 0.0 {
+            self.law
+                .tangent_floor(&c.params, FLOOR_FORCE * self.f_ref.max(self.load_scale))
+        } else {
+            0.0
+        };
+        dfn_dn = dfn_dn.max(floor);
+        c.shear_increment = k.shear_increment - c.shear_offset;
+        let shear = friction(
+            c.shear_force0,
+            c.lag.shear_stiffness,
+            c.lag.limit,
+            c.shear_increment,
+        );
+        c.response = if self.consistent {
+            // The derivative of the refrozen response: a sliding contact's limit `f N`
+            // follows its normal force, a sticking one's `k_s` its overlap.
+            let dks_dn = self.law.shear_stiffness(&c.params, n).1;
+            Response {
+                normal_force,
+                shear_force: shear.force,
+                sliding: shear.sliding,
+                dfn_dn: tangent,
+                dfs_dn: if !shear.sliding {
+                    dks_dn * c.shear_increment
+                } else if c.lag.limit > 0.0 {
+                    shear.force.signum() * c.params.friction * tangent
+                } else {
+                    0.0
+                },
+                dfs_ds: shear.stiffness,
+            }
+        } else {
+            Response {
+                normal_force,
+                shear_force: shear.force,
+                sliding: shear.sliding,
+                dfn_dn,
+                dfs_dn: 0.0,
+                dfs_ds: if shear.sliding {
+                    0.0
+                } else {
+                    shear.stiffness.max(c.params.kappa * floor)
+                },
+            }
+        };
+        c.energy = self.law.normal_energy(&c.params, n, c.bonded) + shear.energy;
+    }
+
+    /// Whether contact `c` carries or can carry: it touches, or it is bonded.
+    fn engaged(c: &Contact) -> bool {
+        c.bonded || c.overlap > 0.0
+    }
+
+    /// At a refreeze, each membrane's chain on the grains where they are now, unless the
+    /// chains are held; a chain the pattern does not couple is noted and not taken.
+    fn refreeze_chains(&mut self) {
+        if self.membranes.is_empty() || self.chains_held {
+            return;
+        }
+        let chains = chains(
+            self.membranes,
+            &self.q.position,
+            &self.grains.radius,
+            self.carriers,
+        );
+        if chains
+            .iter()
+            .zip(self.chains.iter())
+            .all(|(a, b)| a.grains == b.grains)
+        {
+            *self.chains = chains;
+            return;
+        }
+        if !self.pattern.couples(self.dofs, &chains) {
+            self.stale_pattern = true;
+            return;
+        }
+        *self.chains = chains;
+        self.chain_changes += 1;
+        self.chains_held = self.chain_changes >= CHAIN_CHANGES;
+    }
+
     /// Membrane pressures on the chains' grains, and their tangent: a segment `e` from `a` to
     /// `b` pushes both with `p D / 2` times `R e` (`R` the quarter turn), so
     /// `K_aa = K_ba = p D / 2 R` and `K_ab = K_bb = -p D / 2 R`. Over a closed chain that
     /// is symmetric; a symmetric solver takes each segment's symmetric part.
-    pub(super) fn membrane_loads(&self, residual: &mut [f64], mut tangent: Option<&mut [f64]>) {
+    pub(super) fn membrane_loads(&self, residual: &mut [f64], tangent: Option<&mut [f64]>) {
+        // The pressure's stiffness is indefinite: a projected Hessian leaves it out.
+        let mut tangent = tangent.filter(|_| !self.projected);
         let quarter = [[0.0, -1.0], [1.0, 0.0]];
         for (m, membrane) in self.membranes.iter().enumerate() {
             let chain = &self.chains[m];
@@ -474,6 +639,155 @@ impl IncrementEquations<'_> {
                     add(g, g, k, &mut tangent);
                 }
             }
+        }
+    }
+
+    /// `R(u)` into `residual` and, when given, the tangent into `tangent`: the walls' loads,
+    /// every contact's force and stiffness, then the membranes' loads and the springs. When
+    /// lagged, the loads alone are kept in [`IncrementEquations::loads`] too.
+    pub fn evaluate_at(
+        &mut self,
+        u: &[f64],
+        residual: &mut [f64],
+        mut tangent: Option<&mut [f64]>,
+    ) -> Result<(), NumericError> {
+        residual.iter_mut().for_each(|r| *r = 0.0);
+        if let Some(t) = tangent.as_deref_mut() {
+            t.iter_mut().for_each(|v| *v = 0.0);
+        }
+        self.configure(u);
+        if self.refreeze {
+            self.refreeze_chains();
+        }
+        let sum_ext = self.wall_loads(residual, tangent.as_deref_mut());
+        // The force scale before contacts carry: the wall loads shared over the grains that
+        // touch the loaded walls.
+        let loaded = self
+            .contacts
+            .iter()
+            .filter(|c| !self.lagged || Self::engaged(c))
+            .filter(|c| matches!(c.pair.a, Side::Wall(w) if self.dofs.wall[w].is_some()))
+            .count()
+            .max(1) as f64;
+        self.load_scale = sum_ext / loaded;
+        self.update_contacts()?;
+        let start = Instant::now();
+        // Glue contacts carry nothing that changes (see `is_glue`): they count nowhere.
+        let glue: Vec<bool> = self.contacts.iter().map(|c| self.is_glue(c.pair)).collect();
+        let (mut sum_fn, mut energy) = (0.0, 0.0);
+        for (c, _) in self.contacts.iter().zip(&glue).filter(|(_, &g)| !g) {
+            sum_fn += c.response.normal_force.abs();
+            energy += c.energy;
+        }
+        self.energy = energy;
+        // Each contact's block added in the contacts' order, on the threads' shares of the
+        // unknowns; a glue contact's map is empty.
+        let (walls, dofs, kin, contacts) = (self.walls, self.dofs, &*self.kin, &*self.contacts);
+        let tangent_kind = self.block_tangent();
+        self.pattern.scatter(
+            self.pair_index,
+            |i| {
+                let map = dofs.pair_map(
+                    contacts[i].pair,
+                    push_direction(walls, contacts[i].pair, &kin[i]),
+                );
+                if glue[i] {
+                    PairMap { len: 0, ..map }
+                } else {
+                    map
+                }
+            },
+            |i, map| contact_block(&kin[i], &contacts[i].response, map, tangent_kind),
+            residual,
+            tangent.as_deref_mut(),
+        );
+        self.membrane_loads(residual, tangent.as_deref_mut());
+        self.anchor_springs(u, residual, tangent.as_deref_mut());
+        self.glue_springs(u, residual, tangent);
+        if self.lagged {
+            let mut loads = std::mem::take(&mut self.loads);
+            loads.clear();
+            loads.resize(residual.len(), 0.0);
+            self.wall_loads(&mut loads, None);
+            self.membrane_loads(&mut loads, None);
+            self.anchor_springs(u, &mut loads, None);
+            self.glue_springs(u, &mut loads, None);
+            self.loads = loads;
+        }
+        // Force scale: the mean contact force (of those that touch, when every pair of the
+        // friends lists is a contact), or, while contacts carry (almost) nothing, the wall
+        // loads shared over the grains touching the loaded walls.
+        let counted = if self.lagged {
+            self.contacts.iter().filter(|c| Self::engaged(c)).count()
+        } else {
+            self.contacts.len()
+        };
+        self.f_ref = (sum_fn / counted.max(1) as f64).max(self.load_scale);
+        if let Some(bad) = residual.iter().position(|r| !r.is_finite()) {
+            return Err(NumericError::NotFinite {
+                what: "residual",
+                place: match self.dofs.owner(bad) {
+                    Some(g) => format!("grain {g}"),
+                    None => format!("wall unknown {bad}"),
+                },
+            });
+        }
+        self.timers.assembly += secs(start);
+        Ok(())
+    }
+
+    /// The stress-controlled walls' loads, `stress * length * depth` into the sample, the
+    /// length following the walls that bound it (a follower load), and their tangent.
+    /// Returns the sum of their magnitudes.
+    fn wall_loads(&self, residual: &mut [f64], mut tangent: Option<&mut [f64]>) -> f64 {
+        let mut sum = 0.0;
+        for (w, wall) in self.walls.walls.iter().enumerate() {
+            let Some(dof) = self.dofs.wall[w] else {
+                continue;
+            };
+            let sigma = self.step.stress[w];
+            let load = sigma * self.wall_length(w) * self.depth;
+            residual[dof] += load;
+            sum += load.abs();
+            match (tangent.as_deref_mut(), wall.length, wall.circle) {
+                // A circle's circumference follows its own radius: dL/ds = 2 pi sign. A
+                // projected Hessian keeps it only where it stiffens.
+                (Some(t), None, Some(c)) => {
+                    let k = -sigma * self.depth * 2.0 * std::f64::consts::PI * c.sign();
+                    if !self.projected || k > 0.0 {
+                        t[self.pattern.diagonal[dof]] += k;
+                    }
+                }
+                // dL/d(position of a span wall) = -1, so K = -dR/du = sigma * D: the only
+                // unsymmetric term of the walls, left out of a symmetric tangent.
+                (Some(t), None, None) if !self.symmetric => {
+                    for &(_, _, slot) in self.pattern.couplings.iter().filter(|c| c.0 == dof) {
+                        t[slot] += sigma * self.depth;
+                    }
+                }
+                _ => {}
+            }
+        }
+        sum
+    }
+
+    /// A glued grain's own unknowns: springs of a contact's stiffness hold them at zero.
+    fn glue_springs(&self, u: &[f64], residual: &mut [f64], mut tangent: Option<&mut [f64]>) {
+        for dof in (0..self.dofs.len).filter(|&dof| self.dofs.held(dof)) {
+            let k = self.stiffness_hint * self.unit_stiffness(dof);
+            residual[dof] -= k * u[dof];
+            if let Some(t) = tangent.as_deref_mut() {
+                t[self.pattern.diagonal[dof]] += k;
+            }
+        }
+    }
+
+    /// Which tangent each contact's block gives.
+    pub fn block_tangent(&self) -> BlockTangent {
+        match (self.symmetric, self.projected) {
+            (_, true) => BlockTangent::Projected,
+            (true, false) => BlockTangent::Symmetric,
+            (false, false) => BlockTangent::Consistent,
         }
     }
 
@@ -551,8 +865,13 @@ const CLOSING_OVERLAP: f64 = 1e-6;
 /// step stops for them to be made anew.
 const REACH: f64 = 0.9;
 
-impl Equations for IncrementEquations<'_> {
-    fn close_gaps(&mut self, u: &[f64]) -> Option<usize> {
+/// What the grain-by-grain strategy asks of the equations besides their residual.
+impl IncrementEquations<'_> {
+    /// After a step that stopped where a gap closed: make a contact of every pair that is
+    /// apart in the contact set but overlaps at `u`, and let the boundaries follow. Returns how
+    /// many contacts were made, or `None` when the topology must be rebuilt before going on
+    /// (nothing then changed).
+    pub fn close_gaps(&mut self, u: &[f64]) -> Option<usize> {
         let chatter = CHATTER * self.r_mean;
         self.configure(u);
         // The membranes follow the grains, as far as the pattern couples their new chains.
@@ -591,7 +910,10 @@ impl Equations for IncrementEquations<'_> {
         Some(count)
     }
 
-    fn closing_fraction(&mut self, u: &[f64], du: &[f64]) -> f64 {
+    /// The fraction of the step `du` from `u` after which the first pair of surfaces that is
+    /// apart now has closed to a small overlap, or a grain reaches the edge of the friends
+    /// lists (1 when neither happens within the step).
+    pub fn closing_fraction(&mut self, u: &[f64], du: &[f64]) -> f64 {
         // Overlaps of the pairs not in contact at the start and at the end of the step;
         // within it the overlap of two grains lies above the straight line between the two
         // (distance is convex), so stopping where that line reaches the closing overlap leaves
@@ -640,108 +962,9 @@ impl Equations for IncrementEquations<'_> {
         fraction
     }
 
-    fn evaluate(
-        &mut self,
-        u: &[f64],
-        residual: &mut [f64],
-        mut tangent: Option<&mut [f64]>,
-    ) -> Result<(), NumericError> {
-        residual.iter_mut().for_each(|r| *r = 0.0);
-        if let Some(t) = tangent.as_deref_mut() {
-            t.iter_mut().for_each(|v| *v = 0.0);
-        }
-        // Stress-controlled walls: pushed into the sample by stress * length * depth, the
-        // length following the walls that bound it (a follower load).
-        self.configure(u);
-        let mut sum_ext = 0.0;
-        for (w, wall) in self.walls.walls.iter().enumerate() {
-            if let Some(dof) = self.dofs.wall[w] {
-                let sigma = self.step.stress[w];
-                let load = sigma * self.wall_length(w) * self.depth;
-                residual[dof] += load;
-                sum_ext += load.abs();
-                match (tangent.as_deref_mut(), wall.length, wall.circle) {
-                    // A circle's circumference follows its own radius: dL/ds = 2 pi sign.
-                    (Some(t), None, Some(c)) => {
-                        let slot = self.pattern.diagonal[dof];
-                        t[slot] -= sigma * self.depth * 2.0 * std::f64::consts::PI * c.sign();
-                    }
-                    // dL/d(position of a span wall) = -1, so K = -dR/du = sigma * D: the only
-                    // unsymmetric term of the walls, left out of a symmetric tangent.
-                    (Some(t), None, None) if !self.symmetric => {
-                        for &(_, _, slot) in self.pattern.couplings.iter().filter(|c| c.0 == dof) {
-                            t[slot] += sigma * self.depth;
-                        }
-                    }
-                    _ => {}
-                }
-            }
-        }
-        let loaded = self
-            .contacts
-            .iter()
-            .filter(|c| matches!(c.pair.a, Side::Wall(w) if self.dofs.wall[w].is_some()))
-            .count()
-            .max(1) as f64;
-        self.load_scale = sum_ext / loaded;
-        self.update_contacts()?;
-        let start = Instant::now();
-        // Glue contacts carry nothing that changes (see `is_glue`): they count nowhere.
-        let glue: Vec<bool> = self.contacts.iter().map(|c| self.is_glue(c.pair)).collect();
-        let sum_fn = self
-            .contacts
-            .iter()
-            .zip(&glue)
-            .filter(|(_, &glued)| !glued)
-            .fold(0.0, |sum, (c, _)| sum + c.response.normal_force.abs());
-        // Each contact's block added in the contacts' order, on the threads' shares of the
-        // unknowns; a glue contact's map is empty.
-        let (walls, dofs, kin, contacts) = (self.walls, self.dofs, &*self.kin, &*self.contacts);
-        self.pattern.scatter(
-            self.pair_index,
-            |i| {
-                let map = dofs.pair_map(
-                    contacts[i].pair,
-                    push_direction(walls, contacts[i].pair, &kin[i]),
-                );
-                if glue[i] {
-                    PairMap { len: 0, ..map }
-                } else {
-                    map
-                }
-            },
-            |i, map| contact_block(&kin[i], &contacts[i].response, map, self.symmetric),
-            residual,
-            tangent.as_deref_mut(),
-        );
-        self.membrane_loads(residual, tangent.as_deref_mut());
-        self.anchor_springs(u, residual, tangent.as_deref_mut());
-        // A glued grain's own unknowns: springs of a contact's stiffness hold them at zero.
-        for dof in (0..self.dofs.len).filter(|&dof| self.dofs.held(dof)) {
-            let k = self.stiffness_hint * self.unit_stiffness(dof);
-            residual[dof] -= k * u[dof];
-            if let Some(t) = tangent.as_deref_mut() {
-                t[self.pattern.diagonal[dof]] += k;
-            }
-        }
-        // Force scale: the mean contact force, or, while contacts carry (almost) nothing, the
-        // wall loads shared over the grains touching the loaded walls.
-        let n_c = self.contacts.len().max(1) as f64;
-        self.f_ref = (sum_fn / n_c).max(self.load_scale);
-        if let Some(bad) = residual.iter().position(|r| !r.is_finite()) {
-            return Err(NumericError::NotFinite {
-                what: "residual",
-                place: match self.dofs.owner(bad) {
-                    Some(g) => format!("grain {g}"),
-                    None => format!("wall unknown {bad}"),
-                },
-            });
-        }
-        self.timers.assembly += secs(start);
-        Ok(())
-    }
-
-    fn residual_norm(&self, residual: &[f64]) -> (f64, usize, f64) {
+    /// Convergence measure of a residual: `(|R|_inf / F_ref, worst grain, |R|_2 / F_ref)`,
+    /// moments divided by the mean radius.
+    pub fn residual_norm(&self, residual: &[f64]) -> (f64, usize, f64) {
         let per = self.dofs.per_grain;
         let scale = if self.f_ref > 0.0 { self.f_ref } else { 1.0 };
         let (mut inf, mut worst, mut sq) = (0.0f64, 0usize, 0.0);
@@ -759,11 +982,152 @@ impl Equations for IncrementEquations<'_> {
         (inf, worst, sq.sqrt())
     }
 
-    fn unit_stiffness(&self, dof: usize) -> f64 {
+    /// How the stiffness of each unknown scales: 1 for a translation, `r^2` for a rotation.
+    pub fn unit_stiffness(&self, dof: usize) -> f64 {
         match self.dofs.owner(dof) {
             Some(_) if self.dofs.per_grain == 3 && dof % 3 == 2 => self.r_mean * self.r_mean,
             _ => 1.0,
         }
+    }
+
+    /// Size of a step in mean radii (rotations times the mean radius).
+    pub fn step_norm(&self, du: &[f64]) -> f64 {
+        let per = self.dofs.per_grain;
+        du.iter()
+            .enumerate()
+            .map(|(k, d)| match self.dofs.owner(k) {
+                Some(_) if per == 3 && k % 3 == 2 => d.abs(),
+                _ => d.abs() / self.r_mean,
+            })
+            .fold(0.0, f64::max)
+    }
+}
+
+impl Potential for IncrementEquations<'_> {
+    fn evaluate(
+        &mut self,
+        u: &[f64],
+        residual: &mut [f64],
+        tangent: Option<&mut [f64]>,
+        refreeze: bool,
+    ) -> Result<f64, NumericError> {
+        self.refreeze = refreeze;
+        let result = self.evaluate_at(u, residual, tangent);
+        self.refreeze = false;
+        result.map(|()| self.energy)
+    }
+
+    fn loads(&self) -> &[f64] {
+        &self.loads
+    }
+
+    fn residual_norm(&self, residual: &[f64]) -> (f64, usize, f64) {
+        IncrementEquations::residual_norm(self, residual)
+    }
+
+    fn unit_stiffness(&self, dof: usize) -> f64 {
+        IncrementEquations::unit_stiffness(self, dof)
+    }
+
+    fn stiffness_hint(&self) -> f64 {
+        self.stiffness_hint
+    }
+
+    fn rotation_of(&self, dof: usize) -> Option<[usize; 2]> {
+        match self.dofs.owner(dof) {
+            Some(g) if self.dofs.per_grain == 3 && dof % 3 == 2 => {
+                let b = self.dofs.grain(g);
+                Some([b, b + 1])
+            }
+            _ => None,
+        }
+    }
+
+    fn reach(&mut self, u: &[f64], du: &[f64]) -> f64 {
+        // By the triangle inequality on each grain's and wall's move from where the lists
+        // were made.
+        self.configure(u);
+        let reach = REACH * 0.5 * self.friends.skin;
+        let share = |moved: f64, step: f64| {
+            if moved + step > reach {
+                ((reach - moved) / step).max(0.0)
+            } else {
+                1.0
+            }
+        };
+        let mut fraction = 1.0f64;
+        let per = self.dofs.per_grain;
+        for (i, p) in self.q.position.iter().enumerate() {
+            let q = self.friends.reference[i];
+            let moved = (p[0] - q[0]).hypot(p[1] - q[1]);
+            fraction = fraction.min(share(moved, du[i * per].hypot(du[i * per + 1])));
+        }
+        for (w, dof) in self.dofs.wall.iter().enumerate() {
+            if let Some(dof) = *dof {
+                let moved = (self.q.wall_position[w] - self.friends.wall_reference[w][0]).abs();
+                fraction = fraction.min(share(moved, du[dof].abs()));
+            }
+        }
+        fraction
+    }
+
+    fn consistent_tangent(
+        &mut self,
+        u: &[f64],
+        residual: &mut [f64],
+        tangent: &mut [f64],
+    ) -> Result<(), NumericError> {
+        let (symmetric, projected) = (self.symmetric, self.projected);
+        (
+            self.symmetric,
+            self.projected,
+            self.consistent,
+            self.refreeze,
+        ) = (false, false, true, true);
+        let result = self.evaluate_at(u, residual, Some(tangent));
+        (
+            self.symmetric,
+            self.projected,
+            self.consistent,
+            self.refreeze,
+        ) = (symmetric, projected, false, false);
+        result
+    }
+
+    fn needs_new_pattern(&self) -> bool {
+        self.stale_pattern
+    }
+
+    fn runaway(&self, _u: &[f64]) -> Vec<usize> {
+        (0..self.grains.len())
+            .filter(|&i| {
+                let d = self.q.displacement[i];
+                d[0].hypot(d[1]) > 2.0 * self.grains.radius[i]
+            })
+            .collect()
+    }
+}
+
+impl Equations for IncrementEquations<'_> {
+    fn evaluate(
+        &mut self,
+        u: &[f64],
+        residual: &mut [f64],
+        tangent: Option<&mut [f64]>,
+    ) -> Result<(), NumericError> {
+        self.evaluate_at(u, residual, tangent)
+    }
+
+    fn residual_norm(&self, residual: &[f64]) -> (f64, usize, f64) {
+        IncrementEquations::residual_norm(self, residual)
+    }
+
+    fn step_norm(&self, du: &[f64]) -> f64 {
+        IncrementEquations::step_norm(self, du)
+    }
+
+    fn unit_stiffness(&self, dof: usize) -> f64 {
+        IncrementEquations::unit_stiffness(self, dof)
     }
 
     fn stiffness_hint(&self) -> f64 {
@@ -774,14 +1138,11 @@ impl Equations for IncrementEquations<'_> {
         self.far = far;
     }
 
-    fn step_norm(&self, du: &[f64]) -> f64 {
-        let per = self.dofs.per_grain;
-        du.iter()
-            .enumerate()
-            .map(|(k, d)| match self.dofs.owner(k) {
-                Some(_) if per == 3 && k % 3 == 2 => d.abs(),
-                _ => d.abs() / self.r_mean,
-            })
-            .fold(0.0, f64::max)
+    fn closing_fraction(&mut self, u: &[f64], du: &[f64]) -> f64 {
+        IncrementEquations::closing_fraction(self, u, du)
+    }
+
+    fn close_gaps(&mut self, u: &[f64]) -> Option<usize> {
+        IncrementEquations::close_gaps(self, u)
     }
 }

@@ -2,10 +2,13 @@
 //! load increment at a time by the global solver or by grain-by-grain relaxation.
 
 mod equations;
+mod increment;
 mod relaxation;
 mod setup;
 
-pub use equations::{anchors, membrane_carriers, Anchor, IncrementEquations, LoadStep};
+pub use equations::{
+    anchors, membrane_carriers, Anchor, IncrementEquations, LoadStep, CHAIN_CHANGES,
+};
 pub use setup::{initial_contacts, MaterialModel, StageProgram};
 
 use crate::assembly::{DofMap, Pattern};
@@ -100,15 +103,6 @@ const REACH_REBUILD: f64 = 0.8;
 /// carry a load that differs from the one solved for by more than the tolerance allows.
 const EXTENT_CHANGE: f64 = 1e-10;
 
-/// Converged passes of one increment that may change a membrane's chain; the chains are then
-/// held as they are for the rest of the increment. A grain on the probe's line has no
-/// equilibrium in or out of the chain: loaded, it is pushed inside and left out; unloaded,
-/// it springs back and is taken in again (the 10,000-grain cylinder at 84 bar changed its
-/// chain in every one of 30 passes). Held, the chain loads that grain or passes over it as
-/// the last pass decided: one grain's share of the membrane, placed by the round-off of
-/// where the grain stands.
-const CHAIN_CHANGES: usize = 5;
-
 /// Share of its starting residual a pass must end below, when it ran out of iterations, to
 /// go on as another pass.
 const PROGRESS: f64 = 0.5;
@@ -175,7 +169,7 @@ impl Simulation {
             &at_reference,
             &walls_at_reference,
             config.skin * r_mean,
-            &state.contacts,
+            &pairs_of(&state.contacts),
         );
         let carriers = membrane_carriers(state.grains.len(), &state.contacts.contacts);
         let chains = chains(
@@ -293,8 +287,12 @@ impl Simulation {
         self.apply_stage_controls()?;
         self.apply_glue()?;
         let step = self.next_load_step();
-        // Solve: Newton + return map + topology, with cut-back.
-        self.advance(&step, 0, &mut report)?;
+        // Solve: Newton + return map + topology, with cut-back; or the minimisation with
+        // bonds broken one at a time.
+        match self.config.strategy {
+            Strategy::Minimise => self.minimise_step(&step, &mut report)?,
+            Strategy::Newton | Strategy::Relaxation => self.advance(&step, 0, &mut report)?,
+        }
         // Advance the load program.
         self.state.increment += 1;
         self.state.stage_increment += 1;
@@ -661,6 +659,14 @@ impl Simulation {
             stiffness_hint: self.material.stiffness_hint(self.r_mean),
             far: false,
             load_scale: 0.0,
+            lagged: self.config.strategy == Strategy::Minimise,
+            refreeze: false,
+            projected: self.config.strategy == Strategy::Minimise,
+            loads: Vec::new(),
+            stale_pattern: false,
+            chain_changes: 0,
+            consistent: false,
+            energy: 0.0,
         }
     }
 
@@ -826,6 +832,7 @@ impl Simulation {
         eq.pattern = pattern;
         eq.slip_tangent = SlipTangent::ElastoPlastic;
         eq.symmetric = true;
+        eq.projected = false;
         let evaluated = eq.evaluate(u, &mut residual, Some(&mut values));
         let unit: Vec<f64> = (0..dofs.len).map(|dof| eq.unit_stiffness(dof)).collect();
         let timers = eq.timers;
@@ -1029,7 +1036,7 @@ impl Simulation {
             grains,
             walls,
             self.config.skin * self.r_mean,
-            &self.state.contacts,
+            &pairs_of(&self.state.contacts),
         );
         self.state.friends_reference.clone_from(&friends.reference);
         self.state
@@ -1237,20 +1244,19 @@ fn scaled_tangent(pattern: &Pattern, values: &[f64], unit: &[f64]) -> Vec<f64> {
     scaled
 }
 
-/// Friends lists around the given positions that also hold every contact of `contacts`:
+/// The pairs of the contacts of `set`.
+fn pairs_of(set: &ContactSet) -> Vec<Pair> {
+    set.contacts.iter().map(|c| c.pair).collect()
+}
+
+/// Friends lists around the given positions that also hold every pair of `required`:
 /// contacts cannot be outside the lists in practice (the lists are rebuilt before anything
 /// moves half the skin), but a bond stretched past the skin would be.
-fn friends_around(
-    grains: &GrainSet,
-    walls: &WallSet,
-    skin: f64,
-    contacts: &ContactSet,
-) -> FriendSet {
+fn friends_around(grains: &GrainSet, walls: &WallSet, skin: f64, required: &[Pair]) -> FriendSet {
     let mut friends = FriendSet::build(grains, walls, skin);
-    let mut missing: Vec<_> = contacts
-        .contacts
+    let mut missing: Vec<_> = required
         .iter()
-        .map(|c| c.pair)
+        .copied()
         .filter(|p| friends.pairs.binary_search(p).is_err())
         .collect();
     if !missing.is_empty() {

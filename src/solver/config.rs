@@ -20,6 +20,13 @@ pub enum LinearKind {
 pub enum Strategy {
     /// Global Newton over all unknowns at once (the default).
     Newton,
+    /// The increment as the minimisation of its incremental potential over all unknowns
+    /// (the method note's "One load increment"): every friends-list pair a contact at every
+    /// iterate, friction as a potential with its normal force lagged, projected Newton with
+    /// a Cholesky and an Armijo line search on the potential, bonds broken one at a time. In
+    /// progress: it does not yet converge on every increment that Newton does (see the
+    /// README).
+    Minimise,
     /// The thesis's grain-by-grain relaxation: each grain's equilibrium with its neighbours
     /// held fixed (eq. 19), grain after grain, `sweeps` times per increment.
     Relaxation,

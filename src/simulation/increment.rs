@@ -1,0 +1,355 @@
+//! One load increment by the global solver (method note, "One load increment"): every
+//! friends-list pair engaged as a contact, the incremental potential minimised from the
+//! predictor, the friends lists made anew wherever a step reaches their edge, bonds broken
+//! one at a time with the grains settled anew after each, then the commit.
+
+use super::{friends_around, LoadStep, Simulation, REACH_REBUILD};
+use crate::contact::{kinematics, BrokenBond, Configuration, Contact, Lag};
+use crate::solver::minimise::{self, MinimiseSettings, SystemMatrix};
+use crate::solver::stats::secs;
+use crate::state::IncrementReport;
+use crate::NumericError;
+use std::sync::Arc;
+use std::time::Instant;
+
+/// Passes of one minimisation that stop at the edge of the friends lists, at most. A grain
+/// that keeps going is caught long before by the runaway test (a diameter is a few passes).
+const MAX_PASSES: usize = 200;
+
+impl Simulation {
+    /// Minimise the increment's potential, break overloaded bonds one at a time, and commit.
+    /// On failure the committed state is left as it was.
+    pub(super) fn minimise_step(
+        &mut self,
+        step: &LoadStep,
+        report: &mut IncrementReport,
+    ) -> Result<(), NumericError> {
+        let committed = self.state.contacts.clone();
+        let made_before: Vec<_> = committed.contacts.iter().map(|c| c.pair).collect();
+        let result = self.solve_with_breaks(step, report);
+        match result {
+            Ok(u) => {
+                report.negative_pivots = self.negative_pivots(step, &u);
+                let contacts = &mut self.state.contacts.contacts;
+                contacts.retain(|c| c.bonded || c.overlap > 0.0);
+                let made = contacts
+                    .iter()
+                    .filter(|c| made_before.binary_search(&c.pair).is_err())
+                    .count();
+                let kept = contacts.len() - made;
+                report.contacts_made += made;
+                report.contacts_lost += made_before.len() - kept;
+                self.stats.counters.contacts_made += made;
+                self.stats.counters.contacts_lost += made_before.len() - kept;
+                self.commit(step, &u);
+                self.index_pairs()?;
+                self.state.last_step = u;
+                Ok(())
+            }
+            Err(e) => {
+                self.state.contacts = committed;
+                self.restore_friends()?;
+                Err(e)
+            }
+        }
+    }
+
+    /// The increment's equilibrium from the predictor, then, while a bond is past its
+    /// strength, the most overloaded one broken and the equilibrium found anew from there.
+    fn solve_with_breaks(
+        &mut self,
+        step: &LoadStep,
+        report: &mut IncrementReport,
+    ) -> Result<Vec<f64>, NumericError> {
+        self.start_step();
+        self.start_newton()?;
+        let mut u = self.predictor();
+        self.engage_pairs();
+        // The lag starts afresh in every increment, as it does in a resumed run.
+        for c in &mut self.state.contacts.contacts {
+            c.lag = Lag::default();
+        }
+        self.renew_lists_if_far(step, &u)?;
+        loop {
+            self.minimise(step, &mut u, report)?;
+            if !self.break_most_overloaded_bond() {
+                return Ok(u);
+            }
+            report.bonds_broken += 1;
+        }
+    }
+
+    /// Where the increment starts: the last increment's displacements when it was a step of
+    /// the same stage on the same unknowns (the step is the same), else nothing moved.
+    fn predictor(&self) -> Vec<f64> {
+        let last = &self.state.last_step;
+        if self.state.stage_increment > 0 && last.len() == self.dofs.len {
+            last.clone()
+        } else {
+            vec![0.0; self.dofs.len]
+        }
+    }
+
+    /// Minimise from `u` to equilibrium, making the friends lists (or the pattern of the
+    /// membranes' chains) anew each time a step reaches their edge.
+    fn minimise(
+        &mut self,
+        step: &LoadStep,
+        u: &mut [f64],
+        report: &mut IncrementReport,
+    ) -> Result<(), NumericError> {
+        let settings = MinimiseSettings {
+            tolerance: self.config.tolerance,
+            lambda_min: self.config.lambda_min,
+            max_iterations: self.config.max_iterations,
+        };
+        for _ in 0..MAX_PASSES {
+            let pattern = Arc::clone(&self.pattern);
+            let mut values = std::mem::take(&mut self.values);
+            let mut stats = self.stats;
+            let mut linear = std::mem::replace(
+                &mut self.linear,
+                crate::solver::LinearSolver::new(crate::solver::LinearKind::Cholesky),
+            );
+            let mut eq = self.equations(step);
+            let result = minimise::minimise(
+                &mut eq,
+                SystemMatrix {
+                    symbolic: &pattern.symbolic,
+                    values: &mut values,
+                    diagonal: &pattern.diagonal,
+                },
+                &mut linear,
+                u,
+                &settings,
+                &mut stats,
+            );
+            let timers = eq.timers;
+            stats.timers.return_map += timers.return_map;
+            stats.timers.assembly += timers.assembly;
+            self.stats = stats;
+            self.values = values;
+            self.linear = linear;
+            let outcome = result?;
+            report.newton_iterations += outcome.iterations;
+            report.residual = outcome.residual;
+            report.topology_passes += 1;
+            self.stats.counters.topology_passes += 1;
+            self.last_residuals.clone_from(&outcome.history);
+            if outcome.converged {
+                return Ok(());
+            }
+            if !outcome.runaway.is_empty() {
+                return Err(NumericError::NoEquilibrium {
+                    increment: self.state.increment + 1,
+                    residual: outcome.residual,
+                    grains: outcome.runaway,
+                });
+            }
+            if !outcome.at_reach {
+                return Err(NumericError::NotConverged {
+                    increment: self.state.increment + 1,
+                    residual: outcome.residual,
+                    worst_grain: outcome.worst_grain,
+                    cuts: 0,
+                });
+            }
+            self.renew_lists(step, u)?;
+        }
+        Err(NumericError::NotConverged {
+            increment: self.state.increment + 1,
+            residual: report.residual,
+            worst_grain: 0,
+            cuts: 0,
+        })
+    }
+
+    /// Every pair of the friends lists as a contact of the increment: those already in the
+    /// set as they are, the others fresh, with their overlap at the start of the increment
+    /// (a pair apart then counts its shear from where its surfaces touch). A contact the
+    /// lists no longer hold stays only while it carries or is bonded.
+    pub(super) fn engage_pairs(&mut self) {
+        let start = Instant::now();
+        let rest = Configuration::at_rest(&self.state.grains, &self.state.walls);
+        let mut existing = std::mem::take(&mut self.state.contacts.contacts).into_iter();
+        let mut next = existing.next();
+        let mut engaged = Vec::with_capacity(self.friends.pairs.len());
+        let mut outside = Vec::new();
+        for &pair in &self.friends.pairs {
+            // Contacts before this pair that the lists no longer hold.
+            while let Some(c) = next.take_if(|c| c.pair < pair) {
+                if c.bonded || c.overlap > 0.0 {
+                    outside.push(c);
+                }
+                next = existing.next();
+            }
+            if let Some(c) = next.take_if(|c| c.pair == pair) {
+                engaged.push(c);
+                next = existing.next();
+                continue;
+            }
+            let params = self
+                .material
+                .params(pair, &self.state.grains, &self.state.walls);
+            let mut c = Contact::new(pair, params, false);
+            c.start_overlap =
+                kinematics(pair, &self.state.grains, &self.state.walls, &rest).overlap;
+            c.overlap = c.start_overlap;
+            engaged.push(c);
+        }
+        outside.extend(
+            next.into_iter()
+                .chain(existing)
+                .filter(|c| c.bonded || c.overlap > 0.0),
+        );
+        if !outside.is_empty() {
+            engaged.append(&mut outside);
+            engaged.sort_by_key(|c| c.pair);
+        }
+        self.state.contacts.contacts = engaged;
+        self.index_pairs()
+            .expect("the friends lists hold every contact that carries");
+        self.stats.timers.topology += secs(start);
+    }
+
+    /// Make the friends lists anew around the grains and walls at `u` when something moved
+    /// past most of their reach.
+    fn renew_lists_if_far(&mut self, step: &LoadStep, u: &[f64]) -> Result<(), NumericError> {
+        self.equations(step).configure(u);
+        let wall_turn: Vec<f64> = (self.state.walls.walls.iter().zip(&step.turn))
+            .map(|(w, t)| w.turn + t)
+            .collect();
+        let drift = self
+            .friends
+            .drift(&self.q.position, &self.q.wall_position, &wall_turn);
+        if drift > REACH_REBUILD * 0.5 * self.friends.skin {
+            self.renew_lists(step, u)?;
+        }
+        Ok(())
+    }
+
+    /// The friends lists made anew around the grains and walls at `u`, with their pattern,
+    /// the membranes' chains where the grains are, and every new pair engaged.
+    fn renew_lists(&mut self, step: &LoadStep, u: &[f64]) -> Result<(), NumericError> {
+        self.equations(step).configure(u);
+        let start = Instant::now();
+        let mut grains = self.state.grains.clone();
+        grains.position.clone_from(&self.q.position);
+        let mut walls = self.state.walls.clone();
+        for (w, wall) in walls.walls.iter_mut().enumerate() {
+            wall.position = self.q.wall_position[w];
+            wall.slide += step.slide[w];
+            wall.turn += step.turn[w];
+        }
+        let carrying: Vec<_> = self
+            .state
+            .contacts
+            .contacts
+            .iter()
+            .filter(|c| c.bonded || c.overlap > 0.0)
+            .map(|c| c.pair)
+            .collect();
+        let friends = friends_around(&grains, &walls, self.config.skin * self.r_mean, &carrying);
+        self.state.friends_reference.clone_from(&friends.reference);
+        self.state
+            .friends_wall_reference
+            .clone_from(&friends.wall_reference);
+        self.friends = friends;
+        self.stats.counters.friends_rebuilds += 1;
+        self.stats.timers.detection += secs(start);
+        self.engage_pairs();
+        self.install_pattern()?;
+        self.refresh_chains(true)?;
+        Ok(())
+    }
+
+    /// Break the bond most past its strength, if any (method note, step 5): the one whose
+    /// force is the largest multiple of what it can carry. Returns whether one broke.
+    fn break_most_overloaded_bond(&mut self) -> bool {
+        let set = &mut self.state.contacts;
+        let worst = set
+            .contacts
+            .iter()
+            .enumerate()
+            .filter_map(|(i, c)| c.bond_overload().map(|(ratio, mode)| (i, ratio, mode)))
+            .max_by(|a, b| a.1.total_cmp(&b.1).then(b.0.cmp(&a.0)));
+        let Some((i, _, mode)) = worst else {
+            return false;
+        };
+        let c = &mut set.contacts[i];
+        c.bonded = false;
+        c.broken = true;
+        set.broken_bonds.push(BrokenBond {
+            pair: c.pair,
+            increment: self.state.increment + 1,
+            mode,
+        });
+        self.stats.counters.bonds_broken += 1;
+        true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::samples;
+    use crate::scene::build_grains;
+    use crate::solver::{Potential, SolverConfig, Strategy};
+    use rand::{Rng, SeedableRng};
+    use std::path::Path;
+
+    /// The minimisation's potential against its residual: along a random direction `v` from
+    /// a random `u` (lag held), the central difference of the contacts' energy less the
+    /// loads' work is `-R . v`, to within the rotation of the contact frames over the step.
+    #[test]
+    fn residual_is_the_gradient_of_the_potential() {
+        let scene = samples::hertz_patch(6, 5, 1, 0.3, 0.1, 0);
+        let grains = build_grains(&scene.grains, Path::new("."), "t").unwrap();
+        let config = SolverConfig {
+            strategy: Strategy::Minimise,
+            ..SolverConfig::default()
+        };
+        let mut sim = Simulation::new(&scene, grains, config, "t").unwrap();
+        let step = sim.next_load_step();
+        sim.start_step();
+        sim.start_newton().unwrap();
+        sim.engage_pairs();
+        let (n, r) = (sim.dofs.len, sim.r_mean);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        let scale = |k: usize| {
+            if k < 3 * sim.state.grains.len() && k % 3 == 2 {
+                1.0
+            } else {
+                r
+            }
+        };
+        let u: Vec<f64> = (0..n)
+            .map(|k| 2e-4 * scale(k) * (rng.random::<f64>() - 0.5))
+            .collect();
+        let v: Vec<f64> = (0..n)
+            .map(|k| scale(k) * (rng.random::<f64>() - 0.5))
+            .collect();
+        let mut eq = sim.equations(&step);
+        let mut residual = vec![0.0; n];
+        eq.evaluate(&u, &mut residual, None, true).unwrap();
+        let slope: f64 = -residual.iter().zip(&v).map(|(a, b)| a * b).sum::<f64>();
+        let h = 1e-6;
+        let mut at = |sign: f64| {
+            let w: Vec<f64> = u.iter().zip(&v).map(|(a, b)| a + sign * h * b).collect();
+            let mut rw = vec![0.0; n];
+            let energy = eq.evaluate(&w, &mut rw, None, false).unwrap();
+            (energy, eq.loads().to_vec(), w)
+        };
+        let (e_plus, loads_plus, w_plus) = at(1.0);
+        let (e_minus, loads_minus, w_minus) = at(-1.0);
+        // The loads' work from w- to w+, exact for loads affine in u.
+        let work: f64 = (0..n)
+            .map(|k| 0.5 * (loads_plus[k] + loads_minus[k]) * (w_plus[k] - w_minus[k]))
+            .sum();
+        let fd = (e_plus - e_minus - work) / (2.0 * h);
+        assert!(
+            (fd - slope).abs() <= 1e-3 * slope.abs(),
+            "dPi/dv by differences {fd:e}, -R.v {slope:e}"
+        );
+    }
+}

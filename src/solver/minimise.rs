@@ -1,0 +1,419 @@
+//! One load increment as the minimisation of its incremental potential (method note, "One
+//! load increment"): projected Newton with an Armijo line search on the potential.
+//!
+//! Each iteration evaluates every friends-list pair, so contacts are made and lost wherever
+//! the iterate puts them, any number per iteration; factorises the projected (positive
+//! semi-definite) Hessian once with the sparse Cholesky; and backtracks along the step until
+//! the potential falls. The friction of each contact is a convex potential with its normal
+//! force and shear stiffness lagged: refrozen at every accepted iterate whose residual fell,
+//! held while it does not (re-freezing at every step can cycle). Convergence is tested on
+//! the residual of a refrozen evaluation, which is the true, unlagged one.
+//!
+//! The minimiser knows neither the physics (the [`Potential`]) nor the linear solver beyond
+//! the [`LinearSolver`] contract.
+
+use super::krylov;
+use super::linear::LinearSolver;
+use super::stats::SolverStats;
+use crate::NumericError;
+use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
+
+/// An incremental potential `Pi(u)` with its gradient and projected Hessian in a fixed
+/// pattern.
+pub trait Potential {
+    /// Evaluate at `u` the residual `R = -dPi/du` into `residual` and, when given, the
+    /// projected Hessian into `tangent` (the values of the fixed pattern). With `refreeze`
+    /// the lagged quantities are first taken from `u`. Returns the stored energy of the
+    /// contacts, the part of `Pi` that is not the work of the loads (see
+    /// [`Potential::loads`]).
+    fn evaluate(
+        &mut self,
+        u: &[f64],
+        residual: &mut [f64],
+        tangent: Option<&mut [f64]>,
+        refreeze: bool,
+    ) -> Result<f64, NumericError>;
+
+    /// The loads of the last evaluation (walls, membranes, springs on free motions): affine in
+    /// `u`, so their work along a straight step is exact by the trapezoid rule.
+    fn loads(&self) -> &[f64];
+
+    /// Convergence measure of a residual: `(|R|_inf / F_ref, worst grain, |R|_2 / F_ref)`.
+    fn residual_norm(&self, residual: &[f64]) -> (f64, usize, f64);
+
+    /// How the stiffness of each unknown scales: 1 for a translation, `r^2` for a rotation.
+    fn unit_stiffness(&self, dof: usize) -> f64;
+
+    /// The translation unknowns of the grain whose rotation `dof` is, if it is one.
+    fn rotation_of(&self, dof: usize) -> Option<[usize; 2]>;
+
+    /// A stiffness to regularise with when the Hessian has none at all.
+    fn stiffness_hint(&self) -> f64;
+
+    /// The largest share of the step `du` from `u` (at most 1) that keeps every grain and
+    /// wall within the reach of the friends lists.
+    fn reach(&mut self, u: &[f64], du: &[f64]) -> f64;
+
+    /// Evaluate at `u`, refreezing, the true residual into `residual` and its consistent
+    /// (unsymmetric) tangent into `tangent`: the semi-smooth Newton of the friction law,
+    /// where a sliding contact's limit follows its normal force.
+    fn consistent_tangent(
+        &mut self,
+        u: &[f64],
+        residual: &mut [f64],
+        tangent: &mut [f64],
+    ) -> Result<(), NumericError>;
+
+    /// Whether the pattern no longer holds what the last refreeze found (a membrane's chain
+    /// on grains it does not couple): it must be made anew before the minimisation goes on.
+    fn needs_new_pattern(&self) -> bool;
+
+    /// The grains that moved more than their diameter in this increment.
+    fn runaway(&self, u: &[f64]) -> Vec<usize>;
+}
+
+/// Settings of one minimisation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MinimiseSettings {
+    /// Converged when `|R|_inf <= tolerance * F_ref` on a refrozen evaluation.
+    pub tolerance: f64,
+    /// Smallest Levenberg-Marquardt factor: it keeps the rigid motions no wall holds regular.
+    pub lambda_min: f64,
+    /// Iterations allowed.
+    pub max_iterations: usize,
+}
+
+/// How a minimisation ended.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct MinimiseOutcome {
+    /// Whether the tolerance was met.
+    pub converged: bool,
+    /// Iterations made (factorisations of the Hessian).
+    pub iterations: usize,
+    /// Final relative residual.
+    pub residual: f64,
+    /// Grain with the largest residual.
+    pub worst_grain: usize,
+    /// Relative residual before the first iteration and after each.
+    pub history: Vec<f64>,
+    /// Stopped where a step reached the edge of the friends lists, or where the pattern no
+    /// longer holds the membranes' chains: they are made anew before it goes on.
+    pub at_reach: bool,
+    /// Grains that moved more than their diameter while the potential kept falling: no
+    /// equilibrium near (method note, step 4).
+    pub runaway: Vec<usize>,
+}
+
+/// The matrix of the Newton systems: a fixed pattern, its values, and its diagonal slots.
+pub struct SystemMatrix<'a> {
+    /// Pattern (full storage).
+    pub symbolic: &'a SymbolicSparseColMat<usize>,
+    /// Values of the Hessian, filled by [`Potential::evaluate`].
+    pub values: &'a mut Vec<f64>,
+    /// Value index of each diagonal entry.
+    pub diagonal: &'a [usize],
+}
+
+/// Armijo's constant: a step is taken when the potential falls by this share of what the
+/// slope at its start promises.
+const ARMIJO: f64 = 1e-4;
+
+/// Smallest step share the line search tries before it gives up on a direction.
+const MIN_STEP: f64 = 1e-10;
+
+/// Stiffness, as a share of the mean diagonal stiffness, below which a row counts as having
+/// none (a rattler, a just-touching Hertz contact): it gets that much, so the Hessian
+/// factorises and the row's step stays bounded. Rows with stiffness are left exact.
+const WEAK_ROW: f64 = 1e-3;
+
+/// Share of its grain's translational stiffness (times `r^2`) below which a rotation counts
+/// as floppy: its contacts slide, or stick only just touching, so its curvature holds over a
+/// tiny turn (a stick window of `2 f N / k_s`). It gets that much: the step then turns the
+/// grain a bounded way towards the window instead of beyond any contact's reach, and inside
+/// the window, where the curvature is a loaded contact's, the row is exact again.
+const FLOPPY_ROTATION: f64 = 1e-2;
+
+/// Levenberg-Marquardt factor a minimisation starts with: soft modes (a grain perched on
+/// contacts that slide, a pair of grains hanging together) then move a bounded way until
+/// full steps have brought it down.
+const LAMBDA_START: f64 = 1e-4;
+
+/// Relative residual below which a lag that stops converging hands over to semi-smooth
+/// Newton steps.
+const SEMISMOOTH_BELOW: f64 = 1e-2;
+
+/// Full steps in a row that did not halve the true residual before semi-smooth Newton takes
+/// over: the refrozen lag is a fixed-point iteration, and where a sliding contact's friction
+/// drives it into itself (a grain wedged on a barely touching contact) it diverges.
+const LAG_STALLS: usize = 2;
+
+/// GMRES on the consistent tangent, preconditioned by the Cholesky of the Hessian: its
+/// relative tolerance and its iterations at most.
+const KRYLOV_TOLERANCE: f64 = 1e-3;
+const KRYLOV_ITERATIONS: usize = 20;
+
+/// Relative change of the potential below which round-off hides it: a step there is taken
+/// when it lowers the residual instead.
+const ROUNDOFF: f64 = 1e-12;
+
+/// Minimise from `u`; `u` holds the last iterate on return.
+pub fn minimise(
+    eq: &mut dyn Potential,
+    matrix: SystemMatrix<'_>,
+    linear: &mut LinearSolver,
+    u: &mut [f64],
+    settings: &MinimiseSettings,
+    stats: &mut SolverStats,
+) -> Result<MinimiseOutcome, NumericError> {
+    let n = u.len();
+    let SystemMatrix {
+        symbolic,
+        values,
+        diagonal,
+    } = matrix;
+    let mut residual = vec![0.0; n];
+    let mut trial_residual = vec![0.0; n];
+    let mut du = vec![0.0; n];
+    let mut trial_u = vec![0.0; n];
+    let mut loads = vec![0.0; n];
+    let mut regularised = vec![0.0; values.len()];
+
+    let mut energy = eq.evaluate(u, &mut residual, Some(values), true)?;
+    let (mut rel, mut worst, mut merit) = eq.residual_norm(&residual);
+    let mut out = MinimiseOutcome {
+        history: vec![rel],
+        ..Default::default()
+    };
+    if eq.needs_new_pattern() {
+        out.at_reach = true;
+    }
+    // Levenberg-Marquardt factor, raised after steps the line search had to cut hard and
+    // lowered after full ones: it costs no factorisation of its own.
+    let mut lambda = LAMBDA_START;
+    let mut frozen = true;
+    // Semi-smooth Newton: on once the lag stalls, off again where its step fails.
+    let (mut semismooth, mut stalls) = (false, 0usize);
+    let mut consistent = Vec::new();
+    while !out.at_reach {
+        if rel <= settings.tolerance {
+            if frozen {
+                out.converged = true;
+                break;
+            }
+            // Met with the lag held: test it on the true residual.
+            energy = eq.evaluate(u, &mut residual, Some(values), true)?;
+            (rel, worst, merit) = eq.residual_norm(&residual);
+            frozen = true;
+            out.history.push(rel);
+            if eq.needs_new_pattern() {
+                out.at_reach = true;
+                break;
+            }
+            continue;
+        }
+        if out.iterations >= settings.max_iterations {
+            break;
+        }
+        out.iterations += 1;
+        stats.counters.newton_iterations += 1;
+
+        // Direction: the projected Hessian, regularised only where a row has no stiffness.
+        regularise(
+            eq,
+            values,
+            diagonal,
+            lambda.max(settings.lambda_min),
+            &mut regularised,
+        );
+        let a = SparseColMatRef::new(symbolic.as_ref(), &regularised);
+        if let Err(e) = linear.factorize(a, stats) {
+            if lambda >= 1e6 {
+                return Err(NumericError::Singular { detail: e.0 });
+            }
+            lambda = (10.0 * lambda).max(1e-6);
+            continue;
+        }
+        if semismooth {
+            // The consistent tangent's Newton step by GMRES, preconditioned by the Cholesky
+            // just made, and a line search on the true residual.
+            consistent.resize(values.len(), 0.0);
+            eq.consistent_tangent(u, &mut residual, &mut consistent)?;
+            (rel, worst, merit) = eq.residual_norm(&residual);
+            frozen = true;
+            if rel <= settings.tolerance {
+                continue;
+            }
+            du.fill(0.0);
+            let solved = krylov::gmres(
+                &mut |v, out| krylov::multiply(symbolic, &consistent, v, out),
+                &mut |v| linear.solve_in_place(v, stats),
+                &residual,
+                &mut du,
+                KRYLOV_TOLERANCE,
+                KRYLOV_ITERATIONS,
+            );
+            if solved.is_none() {
+                du.copy_from_slice(&residual);
+                linear.solve_in_place(&mut du, stats);
+            }
+            let reach = eq.reach(u, &du);
+            let mut alpha = reach;
+            let accepted = loop {
+                for k in 0..n {
+                    trial_u[k] = u[k] + alpha * du[k];
+                }
+                eq.evaluate(&trial_u, &mut trial_residual, None, true)?;
+                let (_, _, t_merit) = eq.residual_norm(&trial_residual);
+                if t_merit <= (1.0 - ARMIJO * alpha) * merit {
+                    break true;
+                }
+                if alpha < 1.0 / 64.0 {
+                    break false;
+                }
+                alpha *= 0.5;
+            };
+            if accepted {
+                u.copy_from_slice(&trial_u);
+            } else {
+                // Back to the lagged minimisation, regularised harder.
+                semismooth = false;
+                lambda = (100.0 * lambda).max(1e-4);
+            }
+            energy = eq.evaluate(u, &mut residual, Some(values), true)?;
+            (rel, worst, merit) = eq.residual_norm(&residual);
+            out.history.push(rel);
+            if eq.needs_new_pattern() || (accepted && alpha == reach && reach < 1.0) {
+                out.at_reach = true;
+            }
+            continue;
+        }
+        du.copy_from_slice(&residual);
+        linear.solve_in_place(&mut du, stats);
+        if du.iter().any(|v| !v.is_finite()) {
+            return Err(NumericError::NotFinite {
+                what: "Newton step",
+                place: format!("iteration {}", out.iterations),
+            });
+        }
+
+        // Armijo backtracking on the potential, from no further than the lists reach.
+        let slope = -dot(&residual, &du);
+        if slope >= 0.0 {
+            // Round-off left a (nearly) singular step that does not descend: regularise.
+            lambda = (100.0 * lambda).max(1e-4);
+            continue;
+        }
+        let reach = eq.reach(u, &du);
+        let mut alpha = reach;
+        loads.copy_from_slice(eq.loads());
+        let scale = energy.abs() + dot(&loads, u).abs();
+        let accepted = loop {
+            for k in 0..n {
+                trial_u[k] = u[k] + alpha * du[k];
+            }
+            let trial_energy = eq.evaluate(&trial_u, &mut trial_residual, None, false)?;
+            let work: f64 = 0.5
+                * alpha
+                * eq.loads()
+                    .iter()
+                    .zip(&loads)
+                    .zip(&du)
+                    .map(|((a, b), d)| (a + b) * d)
+                    .sum::<f64>();
+            let fall = trial_energy - energy - work;
+            let (t_rel, _, t_merit) = eq.residual_norm(&trial_residual);
+            let armijo = fall <= ARMIJO * alpha * slope;
+            let hidden = fall.abs() <= ROUNDOFF * scale && t_merit < merit;
+            if fall.is_finite() && (armijo || hidden || t_rel <= settings.tolerance) {
+                break Some(t_merit);
+            }
+            if alpha < MIN_STEP {
+                break None;
+            }
+            // The minimum of the quadratic through the slope and the fall, within [0.1, 0.5].
+            let quadratic = -slope * alpha * alpha / (2.0 * (fall - slope * alpha));
+            alpha = quadratic.clamp(0.1 * alpha, 0.5 * alpha);
+        };
+        let Some(trial_merit) = accepted else {
+            // No descent along a Newton direction: near round-off, or a Hessian far from the
+            // potential's curvature. Regularise harder and try again from here.
+            if lambda >= 1e6 {
+                break;
+            }
+            lambda = (100.0 * lambda).max(1e-4);
+            continue;
+        };
+        lambda = if alpha >= 0.5 * reach {
+            0.1 * lambda
+        } else {
+            (10.0 * lambda).max(1e-6)
+        };
+        u.copy_from_slice(&trial_u);
+        // Refreeze while the residual falls; hold the lag while it does not.
+        let before = (merit, frozen);
+        frozen = trial_merit < merit;
+        energy = eq.evaluate(u, &mut residual, Some(values), frozen)?;
+        (rel, worst, merit) = eq.residual_norm(&residual);
+        // Full, refrozen steps that do not halve the true residual: the lag stalls.
+        if before.1 && frozen && alpha == 1.0 && merit > 0.5 * before.0 {
+            stalls += 1;
+        } else {
+            stalls = 0;
+        }
+        semismooth = stalls >= LAG_STALLS && rel < SEMISMOOTH_BELOW;
+        out.history.push(rel);
+        if eq.needs_new_pattern() || (alpha == reach && reach < 1.0) {
+            out.at_reach = true;
+        }
+        if rel > settings.tolerance {
+            out.runaway = eq.runaway(u);
+            if !out.runaway.is_empty() {
+                break;
+            }
+        }
+    }
+    out.residual = rel;
+    out.worst_grain = worst;
+    Ok(out)
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+/// `K + lambda k U` into `out`, `k` the mean diagonal stiffness of the rows that have one
+/// and `U` the units of the rows; a row with less than `WEAK_ROW k u_i` gets that much more,
+/// and a floppy rotation its floor (`FLOPPY_ROTATION`).
+pub(crate) fn regularise(
+    eq: &dyn Potential,
+    values: &[f64],
+    diagonal: &[usize],
+    lambda: f64,
+    out: &mut Vec<f64>,
+) {
+    out.clear();
+    out.extend_from_slice(values);
+    let (mut sum, mut count) = (0.0, 0usize);
+    for (dof, &s) in diagonal.iter().enumerate() {
+        if values[s] > 0.0 {
+            sum += values[s] / eq.unit_stiffness(dof);
+            count += 1;
+        }
+    }
+    let k = if count > 0 {
+        sum / count as f64
+    } else {
+        eq.stiffness_hint()
+    };
+    for (dof, &s) in diagonal.iter().enumerate() {
+        let unit = k * eq.unit_stiffness(dof);
+        let floor = match eq.rotation_of(dof) {
+            Some([x, y]) => {
+                let translation = 0.5 * (values[diagonal[x]] + values[diagonal[y]]);
+                (FLOPPY_ROTATION * translation * eq.unit_stiffness(dof)).max(WEAK_ROW * unit)
+            }
+            None => WEAK_ROW * unit,
+        };
+        out[s] += lambda * unit + (floor - values[s]).max(0.0);
+    }
+}
