@@ -253,8 +253,12 @@ pub fn minimise(
                 KRYLOV_ITERATIONS,
             );
             if solved.is_none() {
-                du.copy_from_slice(&residual);
-                linear.solve_in_place(&mut du, stats);
+                // The Hessian is no preconditioner of the consistent tangent here: back to
+                // the lagged minimisation.
+                (semismooth, stalls) = (false, 0);
+                energy = eq.evaluate(u, &mut residual, Some(values), true)?;
+                (rel, worst, merit) = eq.residual_norm(&residual);
+                continue;
             }
             let reach = eq.reach(u, &du);
             let mut alpha = reach;
@@ -274,6 +278,7 @@ pub fn minimise(
             };
             if accepted {
                 u.copy_from_slice(&trial_u);
+                lambda *= 0.1;
             } else {
                 // Back to the lagged minimisation, regularised harder.
                 semismooth = false;
