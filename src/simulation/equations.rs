@@ -1098,6 +1098,100 @@ impl Potential for IncrementEquations<'_> {
         self.stale_pattern
     }
 
+    fn balance_rotations(&mut self, u: &mut [f64]) {
+        if !self.dofs.rotations() {
+            return;
+        }
+        self.configure(u);
+        // Each contact's shear force as a function of the shear made: `clamp(a - k s, -L, L)`
+        // with `a` its trial force now, and the grains it turns.
+        struct Shear {
+            trial: f64,
+            stiffness: f64,
+            limit: f64,
+        }
+        let mut shears = Vec::with_capacity(self.contacts.len());
+        let mut of_grain: Vec<Vec<usize>> = vec![Vec::new(); self.grains.len()];
+        for c in self.contacts.iter() {
+            if self.is_glue(c.pair) || !(c.bonded || c.lag.limit > 0.0) {
+                continue;
+            }
+            let k = kinematics(c.pair, self.grains, self.walls, self.q);
+            let s = k.shear_increment - c.shear_offset;
+            let at = shears.len();
+            shears.push(Shear {
+                trial: c.shear_force0 + c.lag.shear_stiffness * s,
+                stiffness: c.lag.shear_stiffness,
+                limit: c.lag.limit,
+            });
+            of_grain[c.pair.b].push(at);
+            if let Side::Grain(a) = c.pair.a {
+                of_grain[a].push(at);
+            }
+        }
+        for (g, list) in of_grain.iter().enumerate() {
+            if list.is_empty() || self.dofs.glue[g].is_some() {
+                continue;
+            }
+            let r = self.grains.radius[g];
+            // The moment on the grain turned by `d`: each contact's shear falls by `r d`.
+            let moment = |d: f64| -> f64 {
+                list.iter()
+                    .map(|&i| {
+                        let c = &shears[i];
+                        r * (c.trial - c.stiffness * r * d).clamp(-c.limit, c.limit)
+                    })
+                    .sum()
+            };
+            let now = moment(0.0);
+            if now == 0.0 {
+                continue;
+            }
+            // A bracket from the contacts' stick windows, widened until the moment changes
+            // sign; none where the grain rolls freely (every contact slides the same way).
+            let width = list
+                .iter()
+                .map(|&i| {
+                    let c = &shears[i];
+                    if c.stiffness > 0.0 && c.limit.is_finite() {
+                        (c.trial.abs() + c.limit) / (c.stiffness * r)
+                    } else {
+                        0.0
+                    }
+                })
+                .fold(0.0, f64::max);
+            if width == 0.0 {
+                continue;
+            }
+            let far = now.signum() * 2.0 * width;
+            if moment(far).signum() == now.signum() {
+                continue;
+            }
+            let (mut lo, mut hi) = (0.0, far);
+            for _ in 0..100 {
+                let mid = 0.5 * (lo + hi);
+                if mid == lo || mid == hi {
+                    break;
+                }
+                if moment(mid).signum() == now.signum() {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            let (m_lo, m_hi) = (moment(lo), moment(hi));
+            let d = if m_lo == m_hi {
+                lo
+            } else {
+                lo + (hi - lo) * m_lo / (m_lo - m_hi)
+            };
+            u[self.dofs.grain(g) + 2] += d;
+            for &i in list {
+                shears[i].trial -= shears[i].stiffness * r * d;
+            }
+        }
+    }
+
     fn runaway(&self, _u: &[f64]) -> Vec<usize> {
         (0..self.grains.len())
             .filter(|&i| {

@@ -64,6 +64,14 @@ pub trait Potential {
         tangent: &mut [f64],
     ) -> Result<(), NumericError>;
 
+    /// Turn each grain, one after the other, to where its moments balance with everything
+    /// else held and the lag as it is: the exact minimum of the potential along its rotation,
+    /// a convex, piecewise quadratic function (stick windows `2 f N / k_s` wide between
+    /// stretches where the contact slides). Newton's step cannot find such a window where
+    /// a grain's contacts all slide (its rotation then has no curvature); this lowers the
+    /// potential further after every accepted step.
+    fn balance_rotations(&mut self, u: &mut [f64]);
+
     /// Whether the pattern no longer holds what the last refreeze found (a membrane's chain
     /// on grains it does not couple): it must be made anew before the minimisation goes on.
     fn needs_new_pattern(&self) -> bool;
@@ -354,6 +362,7 @@ pub fn minimise(
             (10.0 * lambda).max(1e-6)
         };
         u.copy_from_slice(&trial_u);
+        eq.balance_rotations(u);
         // Refreeze while the residual falls; hold the lag while it does not.
         let before = (merit, frozen);
         frozen = trial_merit < merit;
