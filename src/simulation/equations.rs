@@ -1094,6 +1094,35 @@ impl Potential for IncrementEquations<'_> {
         result
     }
 
+    fn closing(&mut self, u: &[f64], du: &[f64]) -> f64 {
+        // The overlap of two grains lies above the straight line between its values at the
+        // ends of the step (distance is convex), so stopping where that line reaches the
+        // closing overlap leaves at least that much.
+        let closing = CLOSING_OVERLAP * self.r_mean;
+        self.configure(u);
+        let apart: Vec<(usize, f64)> = (self.contacts.iter().enumerate())
+            .filter(|(_, c)| !c.bonded)
+            .map(|(i, c)| {
+                (
+                    i,
+                    kinematics(c.pair, self.grains, self.walls, self.q).overlap,
+                )
+            })
+            .filter(|&(_, overlap)| overlap < closing)
+            .collect();
+        let end: Vec<f64> = u.iter().zip(du).map(|(a, b)| a + b).collect();
+        self.configure(&end);
+        let mut fraction = 1.0f64;
+        for (i, overlap0) in apart {
+            let pair = self.contacts[i].pair;
+            let overlap1 = kinematics(pair, self.grains, self.walls, self.q).overlap;
+            if overlap1 > closing {
+                fraction = fraction.min((closing - overlap0) / (overlap1 - overlap0));
+            }
+        }
+        fraction
+    }
+
     fn needs_new_pattern(&self) -> bool {
         self.stale_pattern
     }

@@ -72,6 +72,10 @@ pub trait Potential {
     /// potential further after every accepted step.
     fn balance_rotations(&mut self, u: &mut [f64]);
 
+    /// The share of the step `du` from `u` after which the first pair apart now has closed to
+    /// a small overlap (1 when none closes within the step).
+    fn closing(&mut self, u: &[f64], du: &[f64]) -> f64;
+
     /// Whether the pattern no longer holds what the last refreeze found (a membrane's chain
     /// on grains it does not couple): it must be made anew before the minimisation goes on.
     fn needs_new_pattern(&self) -> bool;
@@ -268,8 +272,10 @@ pub fn minimise(
                 (rel, worst, merit) = eq.residual_norm(&residual);
                 continue;
             }
+            // A contact closing within the step has none of its stiffness in the tangent:
+            // the step stops where it closes, and the next one has it (an active set).
             let reach = eq.reach(u, &du);
-            let mut alpha = reach;
+            let mut alpha = reach.min(eq.closing(u, &du));
             let accepted = loop {
                 for k in 0..n {
                     trial_u[k] = u[k] + alpha * du[k];
