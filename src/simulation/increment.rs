@@ -125,10 +125,7 @@ impl Simulation {
                 &mut stats,
             );
             let timers = eq.timers;
-            stats.timers.return_map += timers.return_map;
-            stats.timers.assembly += timers.assembly;
-            self.stats = stats;
-            self.values = values;
+            self.take_back(stats, timers, values);
             self.linear = linear;
             let outcome = result?;
             report.newton_iterations += outcome.iterations;

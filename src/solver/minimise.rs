@@ -14,9 +14,10 @@
 
 use super::krylov;
 use super::linear::LinearSolver;
+pub use super::newton::SystemMatrix;
 use super::stats::SolverStats;
 use crate::NumericError;
-use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
+use faer::sparse::SparseColMatRef;
 
 /// An incremental potential `Pi(u)` with its gradient and projected Hessian in a fixed
 /// pattern.
@@ -114,16 +115,6 @@ pub struct MinimiseOutcome {
     /// Grains that moved more than their diameter while the potential kept falling: no
     /// equilibrium near (method note, step 4).
     pub runaway: Vec<usize>,
-}
-
-/// The matrix of the Newton systems: a fixed pattern, its values, and its diagonal slots.
-pub struct SystemMatrix<'a> {
-    /// Pattern (full storage).
-    pub symbolic: &'a SymbolicSparseColMat<usize>,
-    /// Values of the Hessian, filled by [`Potential::evaluate`].
-    pub values: &'a mut Vec<f64>,
-    /// Value index of each diagonal entry.
-    pub diagonal: &'a [usize],
 }
 
 /// Armijo's constant: a step is taken when the potential falls by this share of what the
