@@ -129,3 +129,42 @@ fn a_hertz_biaxial_converges_in_a_handful_of_iterations_with_newtons_answer() {
         }
     }
 }
+
+/// A disc under a stress-controlled wall with nothing beneath: the wall's load does work
+/// without end, the potential falls as far as the disc goes, and the minimisation names it
+/// as no equilibrium near, not as a solver that gave up.
+#[test]
+fn a_disc_with_nothing_beneath_is_no_equilibrium_near() {
+    let text = r#"
+name = "falling-disc"
+[material]
+law = "linear"
+normal_stiffness = 1e6
+poisson = 0.16
+friction = 0.5
+[grains]
+x = [1e-4]
+y = [1e-4]
+r = [1e-4]
+[[walls]]
+name = "top"
+point = [0.0, 2e-4]
+normal = [0.0, -1.0]
+control = "stress"
+length = 2e-4
+[[stages]]
+increments = 1
+stress = { top = 1e5 }
+"#;
+    let scene = grainstat::scene::parse_scene(text, "falling-disc").unwrap();
+    let grains = build_grains(&scene.grains, Path::new("."), "falling-disc").unwrap();
+    let config = SolverConfig {
+        strategy: Strategy::Minimise,
+        ..SolverConfig::default()
+    };
+    let mut sim = Simulation::new(&scene, grains, config, "falling-disc").unwrap();
+    match sim.run_increment() {
+        Err(grainstat::NumericError::NoEquilibrium { grains, .. }) => assert_eq!(grains, [0]),
+        other => panic!("expected no equilibrium near, got {other:?}"),
+    }
+}
