@@ -2,16 +2,13 @@
 //! unknown, and the tangent `K = -dR/du`, assembled into the fixed pattern.
 
 use crate::assembly::{contact_block, BlockTangent, DofMap, PairMap, Pattern};
-use crate::contact::{
-    friction, kinematics, Configuration, Contact, ContactLaw, Kinematics, Response, SlipTangent,
-};
+use crate::contact::{kinematics, Configuration, Contact, ContactLaw, Kinematics, SlipTangent};
 use crate::geometry::{
     chains, extent_along, rotate, Chain, FriendSet, GrainSet, Membrane, MembraneShape, Pair, Side,
     WallSet,
 };
 use crate::parallel;
 use crate::simulation::MaterialModel;
-use crate::solver::minimise::Potential;
 use crate::solver::stats::{secs, StageTimers};
 use crate::solver::Equations;
 use crate::NumericError;
@@ -267,7 +264,7 @@ pub struct IncrementEquations<'a> {
     pub loads: Vec<f64>,
     /// Whether a refreeze found a membrane chain the pattern does not couple.
     pub stale_pattern: bool,
-    /// Chain changes found by refreezes; past [`CHAIN_CHANGES`] the chains are held.
+    /// Chain changes found by refreezes; past [`super::CHAIN_CHANGES`] the chains are held.
     pub chain_changes: usize,
     /// Whether a lagged evaluation gives the consistent tangent of the true residual: a
     /// sliding contact's friction following its normal force, unsymmetric.
@@ -275,16 +272,6 @@ pub struct IncrementEquations<'a> {
     /// Stored energy of the contacts at the last evaluation (J).
     pub energy: f64,
 }
-
-/// Share of the force scale whose Hertz stiffness a touching contact's Hessian gets at least:
-/// small enough that a contact carrying more than the tolerance has its own.
-const FLOOR_FORCE: f64 = 1e-8;
-
-/// Refreezes of one minimisation that may change a membrane's chain before the chains are
-/// held as they are: a grain on the probe's line has no equilibrium in or out of the chain
-/// (loaded, it is pushed inside and left out; unloaded, it springs back and is taken in).
-/// Held, the chain loads that grain or passes over it as the last change decided.
-pub const CHAIN_CHANGES: usize = 5;
 
 impl IncrementEquations<'_> {
     /// Wall lines, positions and rotations for increment displacements `u` (walls first: a
@@ -451,131 +438,6 @@ impl IncrementEquations<'_> {
             }
         }
         k
-    }
-
-    /// The response of contact `c` in the minimisation (method note, step 2): the normal
-    /// force from the overlap, the friction from the lagged potential, and the contact's
-    /// potential. A refreeze first takes the lag from here: the shear stiffness, the Coulomb
-    /// limit `f N`, and, for a pair apart at the start of the increment, the shear made before
-    /// its surfaces touched on the straight way from there to here.
-    fn respond_lagged(&self, c: &mut Contact, k: &Kinematics) {
-        let n = k.overlap;
-        c.overlap = n;
-        // Unbonded, a contact apart carries nothing.
-        let (normal_force, mut dfn_dn) = if n > 0.0 || c.bonded {
-            self.law.normal(&c.params, n, c.bonded)
-        } else {
-            (0.0, 0.0)
-        };
-        if self.refreeze {
-            let lag = &mut c.lag;
-            lag.unloading = lag.overlap > 0.0 && n <= 0.5 * lag.overlap;
-            lag.overlap = n;
-            lag.shear_stiffness = self.law.shear_stiffness(&c.params, n).0;
-            lag.limit = if c.bonded || c.params.friction.is_infinite() {
-                f64::INFINITY
-            } else {
-                c.params.friction * normal_force.max(0.0)
-            };
-            // Taken once, where the contact is first found touching: taken anew at every
-            // refreeze it would follow the iterate, and the lag would converge only linearly.
-            if c.start_overlap < 0.0 && !c.bonded && !(lag.touched && n > 0.0) {
-                lag.touched = n > 0.0;
-                c.shear_offset = if n > 0.0 {
-                    k.shear_increment * c.start_overlap / (c.start_overlap - n)
-                } else {
-                    k.shear_increment
-                };
-            }
-        }
-        let tangent = dfn_dn;
-        if c.lag.unloading && n > 0.0 {
-            dfn_dn = normal_force / n;
-        }
-        // A contact that (almost) only touches has (almost) no stiffness: a step from it
-        // would drive its grains deep into each other. Its Hessian gets at least the
-        // stiffness it has carrying a negligible share of the force scale.
-        let floor = if n > 0.0 {
-            self.law
-                .tangent_floor(&c.params, FLOOR_FORCE * self.f_ref.max(self.load_scale))
-        } else {
-            0.0
-        };
-        dfn_dn = dfn_dn.max(floor);
-        c.shear_increment = k.shear_increment - c.shear_offset;
-        let shear = friction(
-            c.shear_force0,
-            c.lag.shear_stiffness,
-            c.lag.limit,
-            c.shear_increment,
-        );
-        c.response = if self.consistent {
-            // The derivative of the refrozen response: a sliding contact's limit `f N`
-            // follows its normal force, a sticking one's `k_s` its overlap.
-            let dks_dn = self.law.shear_stiffness(&c.params, n).1;
-            Response {
-                normal_force,
-                shear_force: shear.force,
-                sliding: shear.sliding,
-                dfn_dn: tangent,
-                dfs_dn: if !shear.sliding {
-                    dks_dn * c.shear_increment
-                } else if c.lag.limit > 0.0 {
-                    shear.force.signum() * c.params.friction * tangent
-                } else {
-                    0.0
-                },
-                dfs_ds: shear.stiffness,
-            }
-        } else {
-            Response {
-                normal_force,
-                shear_force: shear.force,
-                sliding: shear.sliding,
-                dfn_dn,
-                dfs_dn: 0.0,
-                dfs_ds: if shear.sliding {
-                    0.0
-                } else {
-                    shear.stiffness.max(c.params.kappa * floor)
-                },
-            }
-        };
-        c.energy = self.law.normal_energy(&c.params, n, c.bonded) + shear.energy;
-    }
-
-    /// Whether contact `c` carries or can carry: it touches, or it is bonded.
-    fn engaged(c: &Contact) -> bool {
-        c.bonded || c.overlap > 0.0
-    }
-
-    /// At a refreeze, each membrane's chain on the grains where they are now, unless the
-    /// chains are held; a chain the pattern does not couple is noted and not taken.
-    fn refreeze_chains(&mut self) {
-        if self.membranes.is_empty() || self.chains_held {
-            return;
-        }
-        let chains = chains(
-            self.membranes,
-            &self.q.position,
-            &self.grains.radius,
-            self.carriers,
-        );
-        if chains
-            .iter()
-            .zip(self.chains.iter())
-            .all(|(a, b)| a.grains == b.grains)
-        {
-            *self.chains = chains;
-            return;
-        }
-        if !self.pattern.couples(self.dofs, &chains) {
-            self.stale_pattern = true;
-            return;
-        }
-        *self.chains = chains;
-        self.chain_changes += 1;
-        self.chains_held = self.chain_changes >= CHAIN_CHANGES;
     }
 
     /// Membrane pressures on the chains' grains, and their tangent: a segment `e` from `a` to
@@ -859,11 +721,11 @@ pub const CHATTER: f64 = 1e-12;
 /// so the contact is made, and small enough that its shear displacement counts from where
 /// the surfaces touched, whatever path Newton took there (deeper stops made the answer
 /// depend on the path: 6.5e-7 of the macro stress in one increment of the sand study).
-const CLOSING_OVERLAP: f64 = 1e-6;
+pub(super) const CLOSING_OVERLAP: f64 = 1e-6;
 
 /// Share of the half skin a grain may move from where the friends lists were made before a
 /// step stops for them to be made anew.
-const REACH: f64 = 0.9;
+pub(super) const REACH: f64 = 0.9;
 
 /// What the grain-by-grain strategy asks of the equations besides their residual.
 impl IncrementEquations<'_> {
@@ -1000,234 +862,6 @@ impl IncrementEquations<'_> {
                 _ => d.abs() / self.r_mean,
             })
             .fold(0.0, f64::max)
-    }
-}
-
-impl Potential for IncrementEquations<'_> {
-    fn evaluate(
-        &mut self,
-        u: &[f64],
-        residual: &mut [f64],
-        tangent: Option<&mut [f64]>,
-        refreeze: bool,
-    ) -> Result<f64, NumericError> {
-        self.refreeze = refreeze;
-        let result = self.evaluate_at(u, residual, tangent);
-        self.refreeze = false;
-        result.map(|()| self.energy)
-    }
-
-    fn loads(&self) -> &[f64] {
-        &self.loads
-    }
-
-    fn residual_norm(&self, residual: &[f64]) -> (f64, usize, f64) {
-        IncrementEquations::residual_norm(self, residual)
-    }
-
-    fn unit_stiffness(&self, dof: usize) -> f64 {
-        IncrementEquations::unit_stiffness(self, dof)
-    }
-
-    fn stiffness_hint(&self) -> f64 {
-        self.stiffness_hint
-    }
-
-    fn rotation_of(&self, dof: usize) -> Option<[usize; 2]> {
-        match self.dofs.owner(dof) {
-            Some(g) if self.dofs.per_grain == 3 && dof % 3 == 2 => {
-                let b = self.dofs.grain(g);
-                Some([b, b + 1])
-            }
-            _ => None,
-        }
-    }
-
-    fn reach(&mut self, u: &[f64], du: &[f64]) -> f64 {
-        // By the triangle inequality on each grain's and wall's move from where the lists
-        // were made.
-        self.configure(u);
-        let reach = REACH * 0.5 * self.friends.skin;
-        let share = |moved: f64, step: f64| {
-            if moved + step > reach {
-                ((reach - moved) / step).max(0.0)
-            } else {
-                1.0
-            }
-        };
-        let mut fraction = 1.0f64;
-        let per = self.dofs.per_grain;
-        for (i, p) in self.q.position.iter().enumerate() {
-            let q = self.friends.reference[i];
-            let moved = (p[0] - q[0]).hypot(p[1] - q[1]);
-            fraction = fraction.min(share(moved, du[i * per].hypot(du[i * per + 1])));
-        }
-        for (w, dof) in self.dofs.wall.iter().enumerate() {
-            if let Some(dof) = *dof {
-                let moved = (self.q.wall_position[w] - self.friends.wall_reference[w][0]).abs();
-                fraction = fraction.min(share(moved, du[dof].abs()));
-            }
-        }
-        fraction
-    }
-
-    fn consistent_tangent(
-        &mut self,
-        u: &[f64],
-        residual: &mut [f64],
-        tangent: &mut [f64],
-    ) -> Result<(), NumericError> {
-        let (symmetric, projected) = (self.symmetric, self.projected);
-        (
-            self.symmetric,
-            self.projected,
-            self.consistent,
-            self.refreeze,
-        ) = (false, false, true, true);
-        let result = self.evaluate_at(u, residual, Some(tangent));
-        (
-            self.symmetric,
-            self.projected,
-            self.consistent,
-            self.refreeze,
-        ) = (symmetric, projected, false, false);
-        result
-    }
-
-    fn closing(&mut self, u: &[f64], du: &[f64]) -> f64 {
-        // The overlap of two grains lies above the straight line between its values at the
-        // ends of the step (distance is convex), so stopping where that line reaches the
-        // closing overlap leaves at least that much.
-        let closing = CLOSING_OVERLAP * self.r_mean;
-        self.configure(u);
-        let apart: Vec<(usize, f64)> = (self.contacts.iter().enumerate())
-            .filter(|(_, c)| !c.bonded)
-            .map(|(i, c)| {
-                (
-                    i,
-                    kinematics(c.pair, self.grains, self.walls, self.q).overlap,
-                )
-            })
-            .filter(|&(_, overlap)| overlap < closing)
-            .collect();
-        let end: Vec<f64> = u.iter().zip(du).map(|(a, b)| a + b).collect();
-        self.configure(&end);
-        let mut fraction = 1.0f64;
-        for (i, overlap0) in apart {
-            let pair = self.contacts[i].pair;
-            let overlap1 = kinematics(pair, self.grains, self.walls, self.q).overlap;
-            if overlap1 > closing {
-                fraction = fraction.min((closing - overlap0) / (overlap1 - overlap0));
-            }
-        }
-        fraction
-    }
-
-    fn needs_new_pattern(&self) -> bool {
-        self.stale_pattern
-    }
-
-    fn balance_rotations(&mut self, u: &mut [f64]) {
-        if !self.dofs.rotations() {
-            return;
-        }
-        self.configure(u);
-        // Each contact's shear force as a function of the shear made: `clamp(a - k s, -L, L)`
-        // with `a` its trial force now, and the grains it turns.
-        struct Shear {
-            trial: f64,
-            stiffness: f64,
-            limit: f64,
-        }
-        let mut shears = Vec::with_capacity(self.contacts.len());
-        let mut of_grain: Vec<Vec<usize>> = vec![Vec::new(); self.grains.len()];
-        for c in self.contacts.iter() {
-            if self.is_glue(c.pair) || !(c.bonded || c.lag.limit > 0.0) {
-                continue;
-            }
-            let k = kinematics(c.pair, self.grains, self.walls, self.q);
-            let s = k.shear_increment - c.shear_offset;
-            let at = shears.len();
-            shears.push(Shear {
-                trial: c.shear_force0 + c.lag.shear_stiffness * s,
-                stiffness: c.lag.shear_stiffness,
-                limit: c.lag.limit,
-            });
-            of_grain[c.pair.b].push(at);
-            if let Side::Grain(a) = c.pair.a {
-                of_grain[a].push(at);
-            }
-        }
-        for (g, list) in of_grain.iter().enumerate() {
-            if list.is_empty() || self.dofs.glue[g].is_some() {
-                continue;
-            }
-            let r = self.grains.radius[g];
-            // The moment on the grain turned by `d`: each contact's shear falls by `r d`.
-            let moment = |d: f64| -> f64 {
-                list.iter()
-                    .map(|&i| {
-                        let c = &shears[i];
-                        r * (c.trial - c.stiffness * r * d).clamp(-c.limit, c.limit)
-                    })
-                    .sum()
-            };
-            let now = moment(0.0);
-            if now == 0.0 {
-                continue;
-            }
-            // A bracket from the contacts' stick windows, widened until the moment changes
-            // sign; none where the grain rolls freely (every contact slides the same way).
-            let width = list
-                .iter()
-                .map(|&i| {
-                    let c = &shears[i];
-                    if c.stiffness > 0.0 && c.limit.is_finite() {
-                        (c.trial.abs() + c.limit) / (c.stiffness * r)
-                    } else {
-                        0.0
-                    }
-                })
-                .fold(0.0, f64::max);
-            if width == 0.0 {
-                continue;
-            }
-            let far = now.signum() * 2.0 * width;
-            if moment(far).signum() == now.signum() {
-                continue;
-            }
-            let (mut lo, mut hi) = (0.0, far);
-            for _ in 0..100 {
-                let mid = 0.5 * (lo + hi);
-                if mid == lo || mid == hi {
-                    break;
-                }
-                if moment(mid).signum() == now.signum() {
-                    lo = mid;
-                } else {
-                    hi = mid;
-                }
-            }
-            let (m_lo, m_hi) = (moment(lo), moment(hi));
-            let d = if m_lo == m_hi {
-                lo
-            } else {
-                lo + (hi - lo) * m_lo / (m_lo - m_hi)
-            };
-            u[self.dofs.grain(g) + 2] += d;
-            for &i in list {
-                shears[i].trial -= shears[i].stiffness * r * d;
-            }
-        }
-    }
-
-    fn runaway(&self, _u: &[f64]) -> Vec<usize> {
-        (0..self.grains.len())
-            .filter(|&i| {
-                let d = self.q.displacement[i];
-                d[0].hypot(d[1]) > 2.0 * self.grains.radius[i]
-            })
-            .collect()
     }
 }
 

@@ -3,12 +3,12 @@
 
 mod equations;
 mod increment;
+mod potential;
 mod relaxation;
 mod setup;
 
-pub use equations::{
-    anchors, membrane_carriers, Anchor, IncrementEquations, LoadStep, CHAIN_CHANGES,
-};
+pub use equations::{anchors, membrane_carriers, Anchor, IncrementEquations, LoadStep};
+pub use potential::CHAIN_CHANGES;
 pub use setup::{initial_contacts, MaterialModel, StageProgram};
 
 use crate::assembly::{DofMap, Pattern};
