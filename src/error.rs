@@ -86,10 +86,12 @@ impl std::error::Error for InputError {}
 /// A numerical failure of the solver.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum NumericError {
-    /// Newton (with cut-back down to the floor) did not reach the tolerance.
+    /// The solver did not reach the tolerance (Newton after cutting the step down to the
+    /// floor; the minimisation, which does not cut, within its iterations).
     #[error(
-        "increment {increment} did not converge: relative residual {residual:.3e} after cutting \
-         the step {cuts} times (worst grain {worst_grain}); the last converged state was written"
+        "increment {increment} did not converge: relative residual {residual:.3e}{} (worst \
+         grain {worst_grain}); the last converged state was written",
+        if *cuts > 0 { format!(" after cutting the step {cuts} times") } else { String::new() }
     )]
     NotConverged {
         /// The load increment (1-based).
