@@ -26,11 +26,12 @@ fn scene(dir: &Path) -> PathBuf {
     path
 }
 
-fn run(scene: &Path, out: &Path, resume: bool) -> Command {
+fn run(scene: &Path, out: &Path, resume: bool, solver: &[&str]) -> Command {
     let mut cmd = common::grainstat_command();
     cmd.arg("run").arg(scene);
     cmd.arg(if resume { "--resume" } else { "-o" }).arg(out);
     cmd.args(["--quiet", "--no-plot"]);
+    cmd.args(solver);
     cmd.stdout(Stdio::null()).stderr(Stdio::null());
     cmd
 }
@@ -61,11 +62,24 @@ fn assert_whole(path: &Path) -> Vec<usize> {
 
 #[test]
 fn a_run_killed_at_random_moments_resumes_to_the_uninterrupted_state() {
+    killed_and_resumed(&[]);
+}
+
+/// The same with the minimisation, whose increment starts from the last one's displacements
+/// (kept in the state for that).
+#[test]
+fn a_minimised_run_killed_at_random_moments_resumes_to_the_uninterrupted_state() {
+    killed_and_resumed(&["--solver", "solvers/minimise.toml"]);
+}
+
+/// Kill the run with settings `solver` a few times, resume it after each kill, and compare
+/// every increment with the uninterrupted run's.
+fn killed_and_resumed(solver: &[&str]) {
     let dir = tempfile::tempdir().unwrap();
     let scene = scene(dir.path());
     let whole = dir.path().join("whole.h5");
     let start = Instant::now();
-    let status = run(&scene, &whole, false).status().unwrap();
+    let status = run(&scene, &whole, false, solver).status().unwrap();
     assert!(status.success());
     let duration = start.elapsed();
     let all = assert_whole(&whole);
@@ -77,7 +91,7 @@ fn a_run_killed_at_random_moments_resumes_to_the_uninterrupted_state() {
     let mut rng = ChaCha8Rng::seed_from_u64(6);
     let mut landed = 0;
     for attempt in 0..4 {
-        let mut child = run(&scene, &killed, attempt > 0).spawn().unwrap();
+        let mut child = run(&scene, &killed, attempt > 0, solver).spawn().unwrap();
         // Until increment 0 is on file there is nothing to resume from (a file killed before
         // has only the header, and resuming from it is bad input).
         while !read_increments(&killed).is_ok_and(|k| !k.is_empty()) {
@@ -96,14 +110,16 @@ fn a_run_killed_at_random_moments_resumes_to_the_uninterrupted_state() {
         assert!(written.iter().all(|k| all.contains(k)));
     }
     assert!(landed > 0, "no kill landed while the run was going");
-    let out = grainstat(&[
+    let mut args = vec![
         "run",
         scene.to_str().unwrap(),
         "--resume",
         killed.to_str().unwrap(),
         "--quiet",
         "--no-plot",
-    ]);
+    ];
+    args.extend(solver);
+    let out = grainstat(&args);
     assert!(out.status.success(), "{}", stderr(&out));
 
     assert_eq!(assert_whole(&killed), all);
