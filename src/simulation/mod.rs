@@ -3,11 +3,13 @@
 
 mod equations;
 mod increment;
+mod load_step;
 mod potential;
 mod relaxation;
 mod setup;
 
-pub use equations::{anchors, membrane_carriers, Anchor, IncrementEquations, LoadStep};
+pub use equations::{anchors, membrane_carriers, Anchor, IncrementEquations};
+pub use load_step::LoadStep;
 pub use potential::CHAIN_CHANGES;
 pub use setup::{initial_contacts, MaterialModel, StageProgram};
 
