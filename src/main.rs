@@ -505,7 +505,8 @@ fn log_line(sim: &Simulation, r: &IncrementReport) -> String {
     format!(
         "inc {:>5} stage {}: {} it, {} pass, {} cuts, {} settled, residuals [{}], {} negative \
          pivots; contacts {} \
-         (+{} -{}), broken {}; walls [{}] Pa; macro xx {:.4e} yy {:.4e} xy {:.2e} Pa",
+         (+{} -{}), broken {}; walls [{}] Pa; macro xx {:.4e} yy {:.4e} xy {:.2e} Pa; \
+         energy: work {:.4e} J, imbalance {:.1e}",
         r.increment,
         r.stage,
         r.newton_iterations,
@@ -523,6 +524,8 @@ fn log_line(sim: &Simulation, r: &IncrementReport) -> String {
         m.macro_stress[0][0],
         m.macro_stress[1][1],
         m.macro_stress[0][1],
+        r.energy.work,
+        r.energy.imbalance(),
     )
 }
 

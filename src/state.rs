@@ -4,6 +4,7 @@
 use crate::contact::ContactSet;
 use crate::geometry::{GrainSet, Membrane, Side, WallSet};
 use crate::measure::Measurements;
+use crate::simulation::EnergyBalance;
 
 /// Where a run stands: committed positions, wall states, contact history, and the place in
 /// the load program.
@@ -67,6 +68,8 @@ pub struct IncrementReport {
     /// a stable equilibrium; positive where a mode of the sample softens (the onset of
     /// failure).
     pub negative_pivots: Option<usize>,
+    /// The increment's energy balance.
+    pub energy: EnergyBalance,
 }
 
 impl State {

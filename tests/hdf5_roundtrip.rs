@@ -9,6 +9,7 @@ use grainstat::measure::{Measurements, Region, RegionShape};
 use grainstat::output::{
     info, read_history, read_increments, read_state, read_summary, ResultFile, RunHeader,
 };
+use grainstat::simulation::EnergyBalance;
 use grainstat::solver::stats::SolverStats;
 use grainstat::state::{IncrementReport, State};
 use grainstat::Error;
@@ -225,6 +226,13 @@ fn report(s: &State) -> IncrementReport {
         bonds_broken: usize::from(s.increment == 1),
         settled: 0,
         negative_pivots: Some(2),
+        energy: EnergyBalance {
+            work: 2.0 * kf,
+            stored: 10.0 + kf,
+            stored_change: kf,
+            dissipated: 0.5 * kf,
+            bonds_released: 0.25 * kf,
+        },
     }
 }
 
@@ -308,6 +316,11 @@ fn every_increment_reads_back_exactly() {
     let history = read_history(&path).unwrap();
     assert_eq!(history.float("mean_rotation"), [1e-3, 2e-3, 3e-3]);
     assert_eq!(history.float("mean_absolute_rotation"), [2e-3, 4e-3, 6e-3]);
+    assert_eq!(history.float("energy_work"), [2.0, 4.0, 6.0]);
+    assert_eq!(history.float("energy_stored"), [11.0, 12.0, 13.0]);
+    assert_eq!(history.float("energy_dissipated"), [0.5, 1.0, 1.5]);
+    assert_eq!(history.float("energy_bonds_released"), [0.25, 0.5, 0.75]);
+    assert_eq!(history.float("energy_imbalance"), [0.125, 0.125, 0.125]);
     assert_eq!(history.region("region_stress_xx")[1], [3.0e5 + 2.0, 5.0]);
     assert_eq!(history.region("region_stress_xy")[2], [1.0, 6.0]);
     assert_eq!(history.region("region_stress_yx")[2], [2.0, 7.0]);

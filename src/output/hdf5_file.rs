@@ -1390,7 +1390,7 @@ const HISTORY_INT: [&str; 13] = [
     "increment",
 ];
 
-const HISTORY_FLOAT: [&str; 9] = [
+const HISTORY_FLOAT: [&str; 14] = [
     "residual",
     "contacts_per_grain",
     "macro_stress_xx",
@@ -1400,6 +1400,12 @@ const HISTORY_FLOAT: [&str; 9] = [
     "volume",
     "mean_rotation",
     "mean_absolute_rotation",
+    // The energy balance (J), NaN in files from before it.
+    "energy_work",
+    "energy_stored",
+    "energy_dissipated",
+    "energy_bonds_released",
+    "energy_imbalance",
 ];
 
 const HISTORY_WALL: [&str; 6] = [
@@ -1580,7 +1586,8 @@ fn append_history(
         state.contacts.broken_bonds.len() as i64,
         state.increment as i64,
     ];
-    let floats: [f64; 9] = [
+    let e = &report.energy;
+    let floats: [f64; 14] = [
         report.residual,
         m.contacts_per_grain,
         m.macro_stress[0][0],
@@ -1590,6 +1597,11 @@ fn append_history(
         m.volume,
         m.mean_rotation,
         m.mean_absolute_rotation,
+        e.work,
+        e.stored,
+        e.dissipated,
+        e.bonds_released,
+        e.imbalance(),
     ];
     let column = |f: fn(&Wall) -> f64| -> Vec<f64> { state.walls.walls.iter().map(f).collect() };
     let wall_rows: [Vec<f64>; 6] = [

@@ -25,6 +25,7 @@ impl Simulation {
         report: &mut IncrementReport,
     ) -> Result<(), NumericError> {
         let committed = self.state.contacts.clone();
+        let energy = self.energy;
         let made_before: Vec<_> = committed.contacts.iter().map(|c| c.pair).collect();
         let result = self.solve_with_breaks(step, report);
         match result {
@@ -48,6 +49,7 @@ impl Simulation {
             }
             Err(e) => {
                 self.state.contacts = committed;
+                self.energy = energy;
                 self.restore_friends()?;
                 Err(e)
             }
@@ -274,6 +276,7 @@ impl Simulation {
             return false;
         };
         let c = &mut set.contacts[i];
+        self.energy.bonds_released += super::energy::bond_energy(self.law.as_ref(), c);
         c.bonded = false;
         c.broken = true;
         set.broken_bonds.push(BrokenBond {

@@ -1,6 +1,7 @@
 //! A simulation: a scene turned into grains, walls, contacts and a load program, advanced one
 //! load increment at a time by the global solver or by grain-by-grain relaxation.
 
+mod energy;
 mod equations;
 mod increment;
 mod load_step;
@@ -8,6 +9,7 @@ mod potential;
 mod relaxation;
 mod setup;
 
+pub use energy::EnergyBalance;
 pub use equations::{anchors, membrane_carriers, Anchor, IncrementEquations};
 pub use load_step::LoadStep;
 pub use potential::CHAIN_CHANGES;
@@ -85,6 +87,9 @@ pub struct Simulation {
     /// The stability indicator's system with every wall free, kept while the pattern it was
     /// made from is the current one and it couples the membranes' chains.
     freed: Option<FreedSystem>,
+    /// The energy the increment being solved dissipated by sliding and released by breaking
+    /// bonds, so far.
+    energy: EnergyBalance,
 }
 
 /// The unknowns, pattern and Cholesky analysis of the tangent with every displacement-
@@ -207,6 +212,7 @@ impl Simulation {
             consistent: false,
             lu: None,
             freed: None,
+            energy: EnergyBalance::default(),
             values: vec![0.0; pattern.nnz()],
             pattern,
             friends,
@@ -289,12 +295,21 @@ impl Simulation {
         self.apply_stage_controls()?;
         self.apply_glue()?;
         let step = self.next_load_step();
+        let start = self.boundary_forces();
+        self.energy = EnergyBalance::default();
         // Solve: Newton + return map + topology, with cut-back; or the minimisation with
         // bonds broken one at a time.
         match self.config.strategy {
             Strategy::Minimise => self.minimise_step(&step, &mut report)?,
             Strategy::Newton | Strategy::Relaxation => self.advance(&step, 0, &mut report)?,
         }
+        let end = self.boundary_forces();
+        report.energy = EnergyBalance {
+            work: start.work_to(&end),
+            stored: end.stored(),
+            stored_change: end.stored() - start.stored(),
+            ..self.energy
+        };
         // Advance the load program.
         self.state.increment += 1;
         self.state.stage_increment += 1;
@@ -427,10 +442,12 @@ impl Simulation {
         report: &mut IncrementReport,
     ) -> Result<(), NumericError> {
         let backup = self.state.contacts.clone();
+        let energy = self.energy;
         let mut result = self.solve_step(step, report, false);
         if result.is_err() && depth >= self.config.settle_after_cuts {
             // No equilibrium near the last one: settle, then solve again.
             self.state.contacts = backup.clone();
+            self.energy = energy;
             self.restore_friends()?;
             report.settled += 1;
             result = self.solve_step(step, report, true);
@@ -447,6 +464,7 @@ impl Simulation {
             }
             Err(err) => {
                 self.state.contacts = backup;
+                self.energy = energy;
                 self.restore_friends()?;
                 if depth >= self.config.max_cuts {
                     return Err(match err {
@@ -923,6 +941,7 @@ impl Simulation {
         let set = &mut self.state.contacts;
         for c in set.contacts.iter_mut().filter(|_| converged) {
             if let Some(mode) = c.bond_failure() {
+                self.energy.bonds_released += energy::bond_energy(self.law.as_ref(), c);
                 c.bonded = false;
                 c.broken = true;
                 set.broken_bonds.push(BrokenBond {
@@ -1175,6 +1194,10 @@ impl Simulation {
         for (m, p) in self.state.membranes.iter_mut().zip(&step.pressure) {
             m.pressure = *p;
         }
+        let law = self.law.as_ref();
+        self.energy.dissipated += (self.state.contacts.contacts.iter())
+            .map(|c| energy::dissipated(law, c))
+            .sum::<f64>();
         self.state.contacts.commit();
         self.q = Configuration::at_rest(&self.state.grains, &self.state.walls);
     }
