@@ -60,10 +60,12 @@ pub(super) struct BoundaryForces {
     /// Each line's moment on the grains about its pivot; each circle's force on the grains
     /// along the radius from its centre (N m; N).
     wall_moment: Vec<f64>,
-    /// The membranes' loads on each grain (N).
-    membrane_force: Vec<[f64; 2]>,
-    /// Grain centres (m).
+    /// The membranes' loads on each grain, and on a grain glued to a wall what the glue
+    /// holds it with: the force and moment that balance its other contacts (N, N m).
+    held: Vec<[f64; 3]>,
+    /// Grain centres and rotations (m, rad).
     position: Vec<[f64; 2]>,
+    rotation: Vec<f64>,
     /// Energy stored in the contacts (J).
     stored: f64,
 }
@@ -81,8 +83,12 @@ impl BoundaryForces {
             work += 0.5 * (self.wall_moment[w] + end.wall_moment[w]) * turn_or_growth;
         }
         for (g, (x0, x1)) in self.position.iter().zip(&end.position).enumerate() {
-            let (f0, f1) = (self.membrane_force[g], end.membrane_force[g]);
-            work += 0.5 * ((f0[0] + f1[0]) * (x1[0] - x0[0]) + (f0[1] + f1[1]) * (x1[1] - x0[1]));
+            let (f0, f1) = (self.held[g], end.held[g]);
+            let turn = end.rotation[g] - self.rotation[g];
+            work += 0.5
+                * ((f0[0] + f1[0]) * (x1[0] - x0[0])
+                    + (f0[1] + f1[1]) * (x1[1] - x0[1])
+                    + (f0[2] + f1[2]) * turn);
         }
         work
     }
@@ -160,15 +166,16 @@ impl Simulation {
         let mut wall_force = vec![[0.0; 2]; nw];
         let mut wall_moment = vec![0.0; nw];
         let mut stored = 0.0;
+        let glued = self.state.contacts.glued(grains.len());
+        // On a glued grain, the force and moment of its contacts other than the glue's.
+        let mut others = vec![[0.0; 3]; grains.len()];
         for c in &self.state.contacts.contacts {
             stored += stored_energy(self.law.as_ref(), c);
-            let Side::Wall(w) = c.pair.a else {
-                continue;
-            };
             if !(c.bonded || c.overlap > 0.0) {
                 continue;
             }
-            // The force on the grain: `F_n n - F_s t` (see `assembly::local`).
+            // The force on grain `b`: `F_n n - F_s t`; its moment `F_s r_b`, and `F_s r_a` on
+            // side `a` (see `assembly::local`).
             let k = kinematics(c.pair, grains, walls, &rest);
             let normal = self.law.normal(&c.params, c.overlap, c.bonded).0;
             let (n, t) = (k.normal, k.tangent);
@@ -176,6 +183,28 @@ impl Simulation {
                 normal * n[0] - c.shear_force0 * t[0],
                 normal * n[1] - c.shear_force0 * t[1],
             ];
+            let b = c.pair.b;
+            let glue = match c.pair.a {
+                Side::Grain(a) => {
+                    if glued[a].is_some() {
+                        let o = &mut others[a];
+                        (o[0], o[1], o[2]) =
+                            (o[0] - f[0], o[1] - f[1], o[2] + c.shear_force0 * k.radius_a);
+                    }
+                    false
+                }
+                Side::Wall(w) => glued[b] == Some(w),
+            };
+            if glued[b].is_some() && !glue {
+                let o = &mut others[b];
+                (o[0], o[1], o[2]) = (o[0] + f[0], o[1] + f[1], o[2] + c.shear_force0 * k.radius_b);
+            }
+            let Side::Wall(w) = c.pair.a else {
+                continue;
+            };
+            if glue {
+                continue;
+            }
             wall_force[w][0] += f[0];
             wall_force[w][1] += f[1];
             let x = grains.position[c.pair.b];
@@ -192,20 +221,26 @@ impl Simulation {
                 p[0] * f[1] - p[1] * f[0]
             };
         }
-        let mut membrane_force = vec![[0.0; 2]; grains.len()];
+        let mut held: Vec<[f64; 3]> = (others.iter().zip(&glued))
+            .map(|(o, g)| match g {
+                Some(_) => [-o[0], -o[1], -o[2]],
+                None => [0.0; 3],
+            })
+            .collect();
         for (membrane, chain) in self.state.membranes.iter().zip(&self.chains) {
             let pd = membrane.pressure * self.depth;
             for (g, f) in chain.loads(membrane.shape, &grains.position, pd) {
-                membrane_force[g][0] += f[0];
-                membrane_force[g][1] += f[1];
+                held[g][0] += f[0];
+                held[g][1] += f[1];
             }
         }
         BoundaryForces {
             wall_place,
             wall_force,
             wall_moment,
-            membrane_force,
+            held,
             position: grains.position.clone(),
+            rotation: grains.rotation.clone(),
             stored,
         }
     }
