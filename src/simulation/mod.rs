@@ -5,9 +5,11 @@ mod energy;
 mod equations;
 mod increment;
 mod load_step;
+mod newton_step;
 mod potential;
 mod relaxation;
 mod setup;
+mod stability;
 
 pub use energy::EnergyBalance;
 pub use equations::{anchors, membrane_carriers, Anchor, IncrementEquations};
@@ -16,18 +18,14 @@ pub use potential::CHAIN_CHANGES;
 pub use setup::{initial_contacts, MaterialModel, StageProgram};
 
 use crate::assembly::{DofMap, Pattern};
-use crate::contact::{
-    kinematics, BrokenBond, Configuration, Contact, ContactLaw, ContactSet, Kinematics, SlipTangent,
-};
+use crate::contact::{Configuration, ContactLaw, ContactSet, Kinematics, SlipTangent};
 use crate::geometry::{chains, Chain, FriendSet, GrainSet, Pair, Side, WallControl, WallSet};
 use crate::measure::{measure, Measurements, MembraneBoundary, Region};
-use crate::solver::dynamic::{self, SettleSettings};
-use crate::solver::newton::{self, NewtonOutcome, NewtonSettings, SystemMatrix};
+use crate::solver::newton;
 use crate::solver::stats::{secs, StageTimers};
 use crate::solver::{Equations, LinearKind, LinearSolver, SolverConfig, SolverStats, Strategy};
 use crate::state::{IncrementReport, State};
 use crate::NumericError;
-use faer::sparse::SparseColMatRef;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -86,20 +84,10 @@ pub struct Simulation {
     lu: Option<LinearSolver>,
     /// The stability indicator's system with every wall free, kept while the pattern it was
     /// made from is the current one and it couples the membranes' chains.
-    freed: Option<FreedSystem>,
+    freed: Option<stability::FreedSystem>,
     /// The energy the increment being solved dissipated by sliding and released by breaking
     /// bonds, so far.
     energy: EnergyBalance,
-}
-
-/// The unknowns, pattern and Cholesky analysis of the tangent with every displacement-
-/// controlled wall freed (see [`Simulation::negative_pivots`]), made from `source`.
-struct FreedSystem {
-    source: Arc<Pattern>,
-    source_dofs: DofMap,
-    dofs: DofMap,
-    pattern: Arc<Pattern>,
-    linear: LinearSolver,
 }
 
 /// Share of the half skin past which the friends lists are made anew: below the share a
@@ -109,36 +97,6 @@ const REACH_REBUILD: f64 = 0.8;
 /// Change of a side's extent, in mean radii, that counts as a new chain: its end pieces then
 /// carry a load that differs from the one solved for by more than the tolerance allows.
 const EXTENT_CHANGE: f64 = 1e-10;
-
-/// Share of its starting residual a pass must end below, when it ran out of iterations, to
-/// go on as another pass.
-const PROGRESS: f64 = 0.5;
-
-/// Bounds of the trust radius a Newton pass starts with, in mean radii.
-const MAX_INITIAL_TRUST: f64 = 1e-2;
-const MIN_INITIAL_TRUST: f64 = 1e-6;
-
-/// Topology passes that stop for the friends lists to be made anew, allowed per pass that
-/// ends on a solve.
-const REACHES_PER_PASS: usize = 10;
-
-/// What one topology pass changed.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-struct TopologyChange {
-    made: usize,
-    lost: usize,
-    broken: usize,
-    /// Contacts that opened in tension and were made again within the increment.
-    remade: usize,
-    /// Membranes whose chain of grains changed.
-    chains: usize,
-}
-
-impl TopologyChange {
-    fn any(&self) -> bool {
-        self.made + self.lost + self.broken + self.chains > 0
-    }
-}
 
 impl Simulation {
     /// A simulation from a committed state (a fresh one from [`Simulation::new`], or one read back to
@@ -433,178 +391,6 @@ impl Simulation {
         }
     }
 
-    /// Solve a step and commit it; on failure restore the history and solve it as two halves,
-    /// down to `max_cuts` halvings.
-    fn advance(
-        &mut self,
-        step: &LoadStep,
-        depth: u32,
-        report: &mut IncrementReport,
-    ) -> Result<(), NumericError> {
-        let backup = self.state.contacts.clone();
-        let energy = self.energy;
-        let mut result = self.solve_step(step, report, false);
-        if result.is_err() && depth >= self.config.settle_after_cuts {
-            // No equilibrium near the last one: settle, then solve again.
-            self.state.contacts = backup.clone();
-            self.energy = energy;
-            self.restore_friends()?;
-            report.settled += 1;
-            result = self.solve_step(step, report, true);
-        }
-        match result {
-            Ok((u, change)) => {
-                report.negative_pivots = self.negative_pivots(step, &u);
-                report.contacts_made += change.made;
-                report.contacts_lost += change.lost;
-                report.bonds_broken += change.broken;
-                report.contacts_remade += change.remade;
-                self.commit(step, &u);
-                Ok(())
-            }
-            Err(err) => {
-                self.state.contacts = backup;
-                self.energy = energy;
-                self.restore_friends()?;
-                if depth >= self.config.max_cuts {
-                    return Err(match err {
-                        NumericError::NotConverged {
-                            increment,
-                            residual,
-                            worst_grain,
-                            ..
-                        } => NumericError::NotConverged {
-                            increment,
-                            residual,
-                            worst_grain,
-                            cuts: depth,
-                        },
-                        other => other,
-                    });
-                }
-                report.cuts += 1;
-                self.stats.counters.cuts += 1;
-                let stress: Vec<f64> = self.state.walls.walls.iter().map(|w| w.stress).collect();
-                let pressure: Vec<f64> = self.state.membranes.iter().map(|m| m.pressure).collect();
-                let (first, second) = step.halves(&stress, &pressure);
-                self.advance(&first, depth + 1, report)?;
-                self.advance(&second, depth + 1, report)
-            }
-        }
-    }
-
-    /// Newton passes until the contact topology stops changing; when told to `settle`, after
-    /// explicit damped dynamics has brought the grains near rest under the step's loads.
-    ///
-    /// With the symmetric tangent (Cholesky, elasto-plastic slip) a pass that runs out of
-    /// iterations hands the rest of the increment to the consistent tangent (LU). The
-    /// elasto-plastic tangent leaves out how a sliding contact's friction follows its normal
-    /// force; where that is what holds a grain (one squeezed between two contacts it slides
-    /// on, carrying next to nothing), Newton then converges only linearly, by a few percent
-    /// per iteration (measured on the freed cylinder). The answer is the same either way.
-    fn solve_step(
-        &mut self,
-        step: &LoadStep,
-        report: &mut IncrementReport,
-        settle: bool,
-    ) -> Result<(Vec<f64>, TopologyChange), NumericError> {
-        self.start_step();
-        if self.config.strategy == Strategy::Relaxation {
-            // Grain by grain, each block is solved with its neighbours held, so nothing need
-            // hold the sample as a whole; an anchor would carry the load the sweeps have not
-            // yet passed through the sample, out of sight of the residual.
-            self.anchors.clear();
-            return self.relax_step(step, report);
-        }
-        self.start_newton()?;
-        let mut u = vec![0.0; self.dofs.len];
-        let mut total = TopologyChange::default();
-        if settle {
-            // Passes of settling, each until rest or until the friends lists must be made
-            // anew; contacts are made between them, lost ones are left to Newton.
-            for _ in 0..REACHES_PER_PASS * self.config.max_topology_passes {
-                let outcome = self.settle(step, &mut u)?;
-                report.topology_passes += 1;
-                self.stats.counters.topology_passes += 1;
-                let change = self.update_topology(step, &u, false)?;
-                total.made += change.made + outcome.contacts_made;
-                self.stats.counters.contacts_made += outcome.contacts_made;
-                if !outcome.at_reach {
-                    break;
-                }
-            }
-        }
-        // Passes that end on a Newton solve count against the chatter cap; those that stop
-        // for new friends lists are bounded by how far grains can travel.
-        let (mut passes, mut reaches, mut chain_changes) = (0, 0, 0);
-        while passes < self.config.max_topology_passes
-            && reaches < REACHES_PER_PASS * self.config.max_topology_passes
-        {
-            let outcome = self.newton(step, &mut u)?;
-            self.trust = Some(outcome.trust);
-            report.newton_iterations += outcome.iterations;
-            report.residual = outcome.residual;
-            if outcome.iterations > 0 {
-                self.last_residuals.clone_from(&outcome.history);
-            }
-            report.topology_passes += 1;
-            self.stats.counters.topology_passes += 1;
-            if outcome.at_reach {
-                reaches += 1;
-            } else {
-                passes += 1;
-            }
-            // Contacts made and lost: after convergence, and also when Newton stalls or stops
-            // for new lists, since a loaded grain that has lost its support cannot be in
-            // equilibrium until it meets its next neighbour. Newton itself made those whose
-            // gaps its steps closed.
-            let change = self.update_topology(step, &u, outcome.converged)?;
-            if outcome.converged && change.chains > 0 {
-                chain_changes += 1;
-                self.chains_held = chain_changes >= CHAIN_CHANGES;
-            }
-            self.stats.counters.contacts_made += outcome.contacts_made;
-            total.made += change.made + outcome.contacts_made;
-            total.lost += change.lost;
-            total.broken += change.broken;
-            // A pass that ran out of iterations while |R| still fell goes on as another; with
-            // the symmetric tangent, the next one has the consistent tangent.
-            let switched = !outcome.converged
-                && !outcome.at_reach
-                && outcome.iterations >= self.config.max_iterations
-                && self.switch_to_consistent();
-            let progressing = switched
-                || outcome
-                    .history
-                    .first()
-                    .is_some_and(|&r0| outcome.residual < PROGRESS * r0);
-            match (outcome.converged, change.any()) {
-                (true, false) => {
-                    total.remade = self.remade.len();
-                    return Ok((u, total));
-                }
-                (false, false)
-                    if !progressing && outcome.contacts_made == 0 && !outcome.at_reach =>
-                {
-                    return Err(NumericError::NotConverged {
-                        increment: self.state.increment + 1,
-                        residual: outcome.residual,
-                        worst_grain: outcome.worst_grain,
-                        cuts: 0,
-                    })
-                }
-                _ => {}
-            }
-        }
-        // The contact set keeps flipping between passes (chatter): cut the increment.
-        Err(NumericError::NotConverged {
-            increment: self.state.increment + 1,
-            residual: report.residual,
-            worst_grain: 0,
-            cuts: 0,
-        })
-    }
-
     /// What every solve of a step starts from: no contact reopened or remade yet, the
     /// membranes' chains free to change, and the carriers of the committed state.
     fn start_step(&mut self) {
@@ -627,19 +413,6 @@ impl Simulation {
         self.trust = None;
         self.consistent = false;
         Ok(())
-    }
-
-    /// Solve the rest of the increment with the consistent tangent, if the scene's solver is
-    /// the symmetric one and has not switched yet. Returns whether it switched.
-    fn switch_to_consistent(&mut self) -> bool {
-        if self.consistent || self.config.linear != LinearKind::Cholesky {
-            return false;
-        }
-        self.consistent = true;
-        if let Some(lu) = &mut self.lu {
-            lu.invalidate();
-        }
-        true
     }
 
     fn equations<'a>(&'a mut self, step: &'a LoadStep) -> IncrementEquations<'a> {
@@ -690,211 +463,6 @@ impl Simulation {
         }
     }
 
-    fn newton(
-        &mut self,
-        step: &LoadStep,
-        u: &mut [f64],
-    ) -> Result<newton::NewtonOutcome, NumericError> {
-        let settings = NewtonSettings {
-            tolerance: self.config.tolerance,
-            displacement_tolerance: self.config.displacement_tolerance,
-            max_iterations: self.config.max_iterations,
-            line_search: self.config.line_search,
-            lambda_min: self.config.lambda_min,
-            reuse_factorisation: self.material.is_linear(),
-            max_step: 0.5 * self.config.skin,
-            initial_trust: self.trust.unwrap_or_else(|| self.initial_trust()),
-        };
-        // The pattern is shared, not copied: the equations read its slots while the matrix
-        // is factorised in it.
-        let pattern = Arc::clone(&self.pattern);
-        let mut values = std::mem::take(&mut self.values);
-        let mut stats = self.stats;
-        // The scene's solver, or the LU one of the consistent tangent (analysed when first
-        // needed on this pattern).
-        let lu = self.consistent && self.config.linear != LinearKind::Lu;
-        if lu && self.lu.is_none() {
-            let mut solver = LinearSolver::new(LinearKind::Lu);
-            solver
-                .analyse(&pattern.symbolic, &mut stats)
-                .map_err(|e| NumericError::Singular { detail: e.0 })?;
-            self.lu = Some(solver);
-        }
-        let mut linear = match (lu, self.lu.take()) {
-            (true, Some(solver)) => solver,
-            (_, kept) => {
-                self.lu = kept;
-                std::mem::replace(&mut self.linear, LinearSolver::new(self.config.linear))
-            }
-        };
-        let mut eq = self.equations(step);
-        let result = newton::solve(
-            &mut eq,
-            SystemMatrix {
-                symbolic: &pattern.symbolic,
-                values: &mut values,
-                diagonal: &pattern.diagonal,
-            },
-            &mut linear,
-            u,
-            &settings,
-            &mut stats,
-        );
-        let timers = eq.timers;
-        self.take_back(stats, timers, values);
-        if linear.kind() == self.config.linear {
-            self.linear = linear;
-        } else {
-            self.lu = Some(linear);
-        }
-        result
-    }
-
-    /// The stability indicator at the converged `u` of `step`: the negative pivots of an
-    /// `L D L^T` of the symmetric (elasto-plastic) tangent, unregularised, with every
-    /// displacement-controlled wall freed and held by its reaction as a dead load. Freed,
-    /// a wall adds the sample's stiffness against it (the slope of its load-displacement
-    /// curve, a Schur complement) to the count: a softening sample shows a negative pivot
-    /// even where its walls are moved, as at the peak of a biaxial test.
-    ///
-    /// The tangent is scaled to pivots of order one first (each row and column by
-    /// `1 / sqrt(k u_i)`, `k` the mean diagonal stiffness, `u_i` the unit of the row: a
-    /// congruence, so the count is the same), and pivots above `-PIVOT_THRESHOLD` count as
-    /// zero: rattlers and free rotations leave the tangent singular, and round-off must not
-    /// make them negative. `None` when turned off, with an LU solver, or when the
-    /// factorisation fails.
-    fn negative_pivots(&mut self, step: &LoadStep, u: &[f64]) -> Option<usize> {
-        if !self.config.stability_indicator || self.linear.kind() != LinearKind::Cholesky {
-            return None;
-        }
-        if self
-            .state
-            .walls
-            .walls
-            .iter()
-            .all(|w| w.control == WallControl::Stress)
-        {
-            let pattern = Arc::clone(&self.pattern);
-            let dofs = self.dofs.clone();
-            let mut linear =
-                std::mem::replace(&mut self.linear, LinearSolver::new(LinearKind::Cholesky));
-            let count = self.count_negative_pivots(step, u, &dofs, &pattern, &mut linear);
-            self.linear = linear;
-            return count;
-        }
-        let current = self.freed.as_ref().is_some_and(|f| {
-            Arc::ptr_eq(&f.source, &self.pattern)
-                && f.source_dofs == self.dofs
-                && f.pattern.couples(&f.dofs, &self.chains)
-        });
-        if !current {
-            let mut walls = self.state.walls.clone();
-            for wall in &mut walls.walls {
-                wall.control = WallControl::Stress;
-            }
-            let dofs = DofMap::new(
-                self.state.grains.len(),
-                self.material.fixed_rotations,
-                &walls,
-                &self.state.contacts.glued(self.state.grains.len()),
-            );
-            let links: Vec<(usize, usize)> = self.chains.iter().flat_map(Chain::links).collect();
-            let pattern = Arc::new(Pattern::build(&self.friends, &dofs, &walls, &links));
-            let mut linear = LinearSolver::new(LinearKind::Cholesky);
-            linear.analyse(&pattern.symbolic, &mut self.stats).ok()?;
-            self.freed = Some(FreedSystem {
-                source: Arc::clone(&self.pattern),
-                source_dofs: self.dofs.clone(),
-                dofs,
-                pattern,
-                linear,
-            });
-        }
-        let mut freed = self.freed.take()?;
-        freed
-            .dofs
-            .follow(&self.state.grains, &self.state.walls, &step.turn);
-        // The walls' unknowns at where the step took them.
-        let mut u_freed = vec![0.0; freed.dofs.len];
-        let grain_unknowns = freed.dofs.grains * freed.dofs.per_grain;
-        u_freed[..grain_unknowns].copy_from_slice(&u[..grain_unknowns]);
-        for (w, dof) in freed.dofs.wall.iter().enumerate() {
-            u_freed[dof.expect("every wall freed")] = match self.dofs.wall[w] {
-                Some(k) => u[k],
-                None => step.normal_move[w],
-            };
-        }
-        let count = self.count_negative_pivots(
-            step,
-            &u_freed,
-            &freed.dofs,
-            &freed.pattern,
-            &mut freed.linear,
-        );
-        self.freed = Some(freed);
-        count
-    }
-
-    /// Negative pivots of the scaled symmetric tangent at `u` in the unknowns `dofs` and
-    /// their `pattern`, analysed in `linear`.
-    fn count_negative_pivots(
-        &mut self,
-        step: &LoadStep,
-        u: &[f64],
-        dofs: &DofMap,
-        pattern: &Pattern,
-        linear: &mut LinearSolver,
-    ) -> Option<usize> {
-        let mut values = vec![0.0; pattern.nnz()];
-        let mut residual = vec![0.0; dofs.len];
-        let mut eq = self.equations(step);
-        eq.dofs = dofs;
-        eq.pattern = pattern;
-        eq.slip_tangent = SlipTangent::ElastoPlastic;
-        eq.symmetric = true;
-        eq.projected = false;
-        let evaluated = eq.evaluate(u, &mut residual, Some(&mut values));
-        let unit: Vec<f64> = (0..dofs.len).map(|dof| eq.unit_stiffness(dof)).collect();
-        let timers = eq.timers;
-        self.stats.timers.return_map += timers.return_map;
-        self.stats.timers.assembly += timers.assembly;
-        evaluated.ok()?;
-        let scaled = scaled_tangent(pattern, &values, &unit);
-        let matrix = SparseColMatRef::new(pattern.symbolic.as_ref(), &scaled);
-        linear
-            .negative_pivots(matrix, PIVOT_THRESHOLD, &mut self.stats)
-            .ok()
-    }
-
-    /// Explicit damped dynamics on the step's equations from `u` (see [`crate::solver::dynamic`]).
-    fn settle(&mut self, step: &LoadStep, u: &mut [f64]) -> Result<NewtonOutcome, NumericError> {
-        let settings = SettleSettings {
-            tolerance: self.config.settle_tolerance,
-            steps: self.config.settle_steps,
-            max_step: 0.05 * self.config.skin,
-        };
-        let pattern = Arc::clone(&self.pattern);
-        let mut values = std::mem::take(&mut self.values);
-        let mut stats = self.stats;
-        let mut eq = self.equations(step);
-        eq.unilateral = true;
-        eq.slip_tangent = SlipTangent::Elastic;
-        let result = dynamic::settle(
-            &mut eq,
-            SystemMatrix {
-                symbolic: &pattern.symbolic,
-                values: &mut values,
-                diagonal: &pattern.diagonal,
-            },
-            u,
-            &settings,
-            &mut stats,
-        );
-        let timers = eq.timers;
-        self.take_back(stats, timers, values);
-        result
-    }
-
     /// Take back the counters and the value buffer a solve worked on, with the time its
     /// equations spent in the return map and the assembly.
     fn take_back(&mut self, mut stats: SolverStats, timers: StageTimers, values: Vec<f64>) {
@@ -902,151 +470,6 @@ impl Simulation {
         stats.timers.assembly += timers.assembly;
         self.stats = stats;
         self.values = values;
-    }
-
-    /// The trust radius the first Newton pass of an increment starts with, in mean radii: the
-    /// mean overlap of the contacts, so that a first step changes no contact force by much
-    /// more than the mean force, however stiff the material (at most 1e-2, at least 1e-6).
-    /// Later passes go on with the radius the last one ended with.
-    fn initial_trust(&self) -> f64 {
-        ContactSet::mean_overlap(&self.state.contacts.contacts).map_or(MAX_INITIAL_TRUST, |d| {
-            (d / self.r_mean).clamp(MIN_INITIAL_TRUST, MAX_INITIAL_TRUST)
-        })
-    }
-
-    /// After Newton converged: break overloaded bonds, drop contacts that opened, rebuild the
-    /// friends lists if something moved too far, and make the contacts that closed. After a
-    /// stalled pass only contacts are made: what opens at an iterate that is not an
-    /// equilibrium may close again.
-    fn update_topology(
-        &mut self,
-        step: &LoadStep,
-        u: &[f64],
-        converged: bool,
-    ) -> Result<TopologyChange, NumericError> {
-        // Responses at the converged iterate (a rejected line-search trial may be in place).
-        let mut eq = self.equations(step);
-        eq.configure(u);
-        eq.update_contacts()?;
-        self.stats.timers.return_map += eq.timers.return_map;
-        let start = Instant::now();
-        // Contacts Newton made again where its steps closed their gaps.
-        self.note_remade();
-        let mut change = TopologyChange::default();
-        let increment = self.state.increment + 1;
-        // Contacts are lost below -chatter and made above +chatter: at rest, overlaps at the
-        // round-off level would otherwise flip contacts on and off from pass to pass. A
-        // linear contact kept in between carries at most k * chatter, a Hertz one nothing.
-        let chatter = equations::CHATTER * self.r_mean;
-        let set = &mut self.state.contacts;
-        for c in set.contacts.iter_mut().filter(|_| converged) {
-            if let Some(mode) = c.bond_failure() {
-                self.energy.bonds_released += energy::bond_energy(self.law.as_ref(), c);
-                c.bonded = false;
-                c.broken = true;
-                set.broken_bonds.push(BrokenBond {
-                    pair: c.pair,
-                    increment,
-                    mode,
-                });
-                change.broken += 1;
-            }
-        }
-        let before = set.contacts.len();
-        let reopened = &mut self.reopened;
-        set.contacts.retain(|c| {
-            let kept = !converged || c.bonded || c.overlap >= -chatter;
-            if !kept {
-                if let Err(at) = reopened.binary_search(&c.pair) {
-                    reopened.insert(at, c.pair);
-                }
-            }
-            kept
-        });
-        change.lost = before - set.contacts.len();
-
-        // Friends lists: rebuilt around the current positions once anything moved half the skin.
-        let wall_position: Vec<f64> = (0..self.state.walls.len())
-            .map(|w| {
-                self.state.walls.walls[w].position
-                    + match self.dofs.wall[w] {
-                        Some(dof) => u[dof],
-                        None => step.normal_move[w],
-                    }
-            })
-            .collect();
-        self.stats.timers.topology += secs(start);
-        // After a step that stopped short of the lists' reach, or anything further.
-        let reach = 0.5 * self.friends.skin * REACH_REBUILD;
-        let wall_turn: Vec<f64> = (self.state.walls.walls.iter().zip(&step.turn))
-            .map(|(w, t)| w.turn + t)
-            .collect();
-        if self
-            .friends
-            .drift(&self.q.position, &wall_position, &wall_turn)
-            > reach
-        {
-            // Copies of grains and walls where they are now, made only for a rebuild.
-            let mut current = self.state.grains.clone();
-            current.position.clone_from(&self.q.position);
-            let mut walls_now = self.state.walls.clone();
-            for (w, wall) in walls_now.walls.iter_mut().enumerate() {
-                wall.position = wall_position[w];
-                wall.slide += step.slide[w];
-                wall.turn = wall_turn[w];
-            }
-            self.rebuild_friends(&current, &walls_now)?;
-        }
-        let start = Instant::now();
-
-        // Contacts made: friend pairs that now overlap.
-        let mut merged = Vec::with_capacity(self.state.contacts.contacts.len());
-        let mut existing = std::mem::take(&mut self.state.contacts.contacts)
-            .into_iter()
-            .peekable();
-        for &pair in &self.friends.pairs {
-            if existing.peek().is_some_and(|c| c.pair == pair) {
-                merged.push(existing.next().expect("peeked"));
-                continue;
-            }
-            let k = kinematics(pair, &self.state.grains, &self.state.walls, &self.q);
-            if k.overlap > chatter {
-                let params = self
-                    .material
-                    .params(pair, &self.state.grains, &self.state.walls);
-                let mut c = Contact::new(pair, params, false);
-                c.shear_offset = k.shear_increment;
-                merged.push(c);
-                change.made += 1;
-            }
-        }
-        // Contacts outside the lists cannot happen (they are rebuilt before anything moves far
-        // enough), but a bond stretched past the skin would be one: keep it all the same.
-        merged.extend(existing);
-        merged.sort_by_key(|c| c.pair);
-        self.state.contacts.contacts = merged;
-        self.note_remade();
-        self.index_pairs()?;
-        // Membranes: on the grains that are outermost now.
-        if !self.chains_held {
-            change.chains = self.refresh_chains(true)?;
-        }
-        self.stats.counters.contacts_made += change.made;
-        self.stats.counters.contacts_lost += change.lost;
-        self.stats.counters.bonds_broken += change.broken;
-        self.stats.timers.topology += secs(start);
-        Ok(change)
-    }
-
-    /// Note the contacts in the set that opened in tension earlier in the increment.
-    fn note_remade(&mut self) {
-        for c in &self.state.contacts.contacts {
-            if self.reopened.binary_search(&c.pair).is_ok() {
-                if let Err(at) = self.remade.binary_search(&c.pair) {
-                    self.remade.insert(at, c.pair);
-                }
-            }
-        }
     }
 
     /// Friends lists around the given positions, and the pattern and symbolic factorisation
@@ -1237,36 +660,6 @@ impl Simulation {
         // Evaluation overwrote the trial responses with the committed ones: same values.
         (rel, worst)
     }
-}
-
-/// Pivots of the scaled tangent (of order one) above `-PIVOT_THRESHOLD` count as zero in the
-/// stability indicator.
-const PIVOT_THRESHOLD: f64 = 1e-8;
-
-/// The tangent `values` scaled as `S K S`, `S_ii = 1 / sqrt(k unit_i)`, `k` the mean of
-/// `K_ii / unit_i` over the rows that have stiffness: every diagonal then of order one.
-fn scaled_tangent(pattern: &Pattern, values: &[f64], unit: &[f64]) -> Vec<f64> {
-    let (mut sum, mut count) = (0.0, 0usize);
-    for (dof, &slot) in pattern.diagonal.iter().enumerate() {
-        if values[slot] > 0.0 {
-            sum += values[slot] / unit[dof];
-            count += 1;
-        }
-    }
-    let k = if count > 0 { sum / count as f64 } else { 1.0 };
-    let scale: Vec<f64> = unit.iter().map(|u| 1.0 / (k * u).sqrt()).collect();
-    let symbolic = pattern.symbolic.as_ref();
-    let mut scaled = values.to_vec();
-    for (col, &s_col) in scale.iter().enumerate() {
-        let range = symbolic.col_ptr()[col]..symbolic.col_ptr()[col + 1];
-        for (v, &row) in scaled[range]
-            .iter_mut()
-            .zip(symbolic.row_idx_of_col_raw(col))
-        {
-            *v *= scale[row] * s_col;
-        }
-    }
-    scaled
 }
 
 /// The pairs of the contacts of `set`.

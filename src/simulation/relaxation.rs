@@ -5,7 +5,8 @@
 //! between passes by the same topology update as for Newton.
 
 use super::equations::{IncrementEquations, CHATTER};
-use super::{LoadStep, Simulation, TopologyChange, REACH_REBUILD};
+use super::newton_step::TopologyChange;
+use super::{LoadStep, Simulation, REACH_REBUILD};
 use crate::assembly::contact_block;
 use crate::contact::kinematics;
 use crate::geometry::{Pair, Side};
