@@ -24,8 +24,8 @@ pub enum Strategy {
     /// (the method note's "One load increment"): every friends-list pair a contact at every
     /// iterate, friction as a potential with its normal force lagged, projected Newton with
     /// a Cholesky and an Armijo line search on the potential, bonds broken one at a time. In
-    /// progress: it does not yet converge on every increment that Newton does (see the
-    /// README).
+    /// progress: it does not yet converge on every increment that Newton does (see
+    /// docs/minimise.md).
     Minimise,
     /// The thesis's grain-by-grain relaxation: each grain's equilibrium with its neighbours
     /// held fixed (eq. 19), grain after grain, `sweeps` times per increment.

@@ -31,8 +31,8 @@ use std::time::Instant;
 pub struct NotFactorizable(pub String);
 
 /// Unknowns from which faer's Cholesky runs on the pool's threads. On two free cores,
-/// 300,000 unknowns factorise 1.25 times as fast on two threads, 30,000 no faster (README,
-/// Threads). Its factors are the same bit for bit on any number of threads; the parallel
+/// 300,000 unknowns factorise 1.25 times as fast on two threads, 30,000 no faster
+/// (docs/performance.md, Threads). Its factors are the same bit for bit on any number of threads; the parallel
 /// LU's are not, so the LU stays on one thread.
 pub const PARALLEL_UNKNOWNS: usize = 100_000;
 
