@@ -145,6 +145,15 @@ fn bad_scenes_are_exit_status_2_naming_file_key_and_line() {
             vec!["zero-radius.toml:10".into(), "grains.r[0]".into()],
         ),
         (
+            "far-grain.toml",
+            two_grains("[0.0, 1e300]", "3e-4"),
+            vec![
+                "far-grain.toml:8".into(),
+                "grains.x[1]".into(),
+                "cell grid cannot hold".into(),
+            ],
+        ),
+        (
             "no-grains.toml",
             two_grains("[]", "2e-4")
                 .replace("y = [1e-4, 1e-4]", "y = []")

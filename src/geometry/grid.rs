@@ -13,6 +13,9 @@ pub struct CellGrid {
     members: Vec<usize>,
 }
 
+/// Cells along a side at most, less one: 2^16 in all.
+const MAX_CELLS_ALONG: f64 = 65_535.0;
+
 impl CellGrid {
     /// A grid of cells at least `cell` wide over the given centres; wider where the centres
     /// are spread so far (grains flung apart by a run gone wrong) that the cells would not fit
@@ -30,8 +33,12 @@ impl CellGrid {
         }
         // At most 16 cells per grain beyond 2^24 (128 MB of cell starts).
         let most = 16.0 * position.len() as f64 + (1u64 << 24) as f64;
-        let cell = cell.max(((hi[0] - lo[0]) * (hi[1] - lo[1]) / most).sqrt());
-        let count = |k: usize| (((hi[k] - lo[k]) / cell).floor() as usize + 1).min(1 << 16);
+        // And at most 2^16 cells along each side, however thin the box.
+        let cell = cell
+            .max(((hi[0] - lo[0]) * (hi[1] - lo[1]) / most).sqrt())
+            .max((hi[0] - lo[0]) / MAX_CELLS_ALONG)
+            .max((hi[1] - lo[1]) / MAX_CELLS_ALONG);
+        let count = |k: usize| ((hi[k] - lo[k]) / cell).floor() as usize + 1;
         let mut grid = CellGrid {
             origin: lo,
             cell,
@@ -82,5 +89,21 @@ impl CellGrid {
                 .iter()
                 .copied()
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every grain on one line, one far out along it: the box has no area, so only the
+    /// bound along each side keeps the cells few; the near grains are still found.
+    #[test]
+    fn a_grain_far_along_a_line_only_widens_the_cells() {
+        let position = [[0.0, 0.0], [2e-4, 0.0], [1e300, 0.0]];
+        let grid = CellGrid::new(&position, 3e-4);
+        assert!(grid.cols * grid.rows <= 1 << 16);
+        let near: Vec<usize> = grid.near([0.0, 0.0]).collect();
+        assert!(near.contains(&0) && near.contains(&1), "{near:?}");
     }
 }

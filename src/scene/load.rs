@@ -56,7 +56,7 @@ pub fn build_grains(
     if let Some((key, message)) = grain_problems(source).into_iter().next() {
         return Err(InputError::new(scene_file, message).at_key(key));
     }
-    if let Some(file) = &source.file {
+    let grains = if let Some(file) = &source.file {
         read_grain_csv(&base_dir.join(file))
     } else if let Some(sample) = &source.sample {
         // The grains exactly as saved: origin, displacement and rotation included.
@@ -79,7 +79,62 @@ pub fn build_grains(
     } else {
         let position = source.x.iter().zip(&source.y).map(|(&x, &y)| [x, y]);
         Ok(GrainSet::new(position.collect(), source.r.clone()))
+    }?;
+    // Inline lists were checked with the scene, where their keys have lines.
+    let x: Vec<f64> = grains.position.iter().map(|p| p[0]).collect();
+    let y: Vec<f64> = grains.position.iter().map(|p| p[1]).collect();
+    match (
+        span_problem(&x, &y, &grains.radius),
+        &source.file,
+        &source.sample,
+    ) {
+        (Some((_, _, message)), Some(file), _) | (Some((_, _, message)), None, Some(file)) => Err(
+            InputError::new(base_dir.join(file).display().to_string(), message),
+        ),
+        _ => Ok(grains),
     }
+}
+
+/// Largest span of the grain centres along x or y, in largest diameters: the cell grid of the
+/// contact detection holds 2^16 cells along each, each at least a diameter wide.
+pub const MAX_SPAN_DIAMETERS: f64 = 65_536.0;
+
+/// A grain whose centre lies farther from the others than the cell grid can hold: the grain,
+/// the axis (`"x"` or `"y"`) and what is wrong. `x`, `y` and `r` are the grains' centres and
+/// radii, finite.
+pub(crate) fn span_problem(
+    x: &[f64],
+    y: &[f64],
+    r: &[f64],
+) -> Option<(usize, &'static str, String)> {
+    let diameter = 2.0 * r.iter().fold(0.0f64, |m, &r| m.max(r));
+    for (axis, c) in [("x", x), ("y", y)] {
+        let low = (0..c.len()).min_by(|&a, &b| c[a].total_cmp(&c[b]))?;
+        let high = (0..c.len()).max_by(|&a, &b| c[a].total_cmp(&c[b]))?;
+        let span = c[high] - c[low];
+        if span > MAX_SPAN_DIAMETERS * diameter {
+            // The grain farther from the middle of the others is the one out of place.
+            let mut sorted = c.to_vec();
+            sorted.sort_by(f64::total_cmp);
+            let median = sorted[(sorted.len() - 1) / 2];
+            let far = if c[high] - median >= median - c[low] {
+                high
+            } else {
+                low
+            };
+            return Some((
+                far,
+                axis,
+                format!(
+                    "grain {far} at {axis} = {:e} puts the grains {span:e} m apart along {axis}: \
+                     more than {MAX_SPAN_DIAMETERS} of their largest diameter ({diameter:e} m), \
+                     which the contact detection's cell grid cannot hold",
+                    c[far]
+                ),
+            ));
+        }
+    }
+    None
 }
 
 /// Grains from a CSV file of `x, y, r` lines; problems name the file and the line.

@@ -211,6 +211,12 @@ pub(crate) fn grain_problems(g: &GrainSource) -> Vec<(String, String)> {
         for (i, &v) in g.r.iter().enumerate() {
             p.positive(&format!("grains.r[{i}]"), v);
         }
+        let sound = |v: &[f64]| v.len() == n && v.iter().all(|x| x.is_finite());
+        if n > 0 && sound(&g.x) && sound(&g.y) && sound(&g.r) {
+            if let Some((i, axis, message)) = super::load::span_problem(&g.x, &g.y, &g.r) {
+                p.push(format!("grains.{axis}[{i}]"), message);
+            }
+        }
     }
     if let Some(c) = &g.crystal {
         if c.rows == 0 {

@@ -1,6 +1,7 @@
 //! The fuzz target's check on stable Rust, for machines without a nightly toolchain (which
-//! libFuzzer needs): seed scenes (every `.toml` under `examples/` and `solvers/`, and the
-//! scenes of `grainstat::samples`) mutated at random from a seed, for a given time.
+//! libFuzzer needs): seed scenes (every `.toml` under `examples/` and `solvers/`, the scenes
+//! of `grainstat::samples`, and one with a grain too far out) mutated at random from a seed,
+//! for a given time.
 //!
 //! ```sh
 //! cargo run --release --bin mutate -- 600        # ten minutes, seed 1
@@ -61,6 +62,10 @@ fn seeds(root: &Path) -> Vec<String> {
     ] {
         texts.push(toml::to_string(&scene).expect("sample scenes serialise"));
     }
+    // Grains farther apart than the contact detection's cell grid holds: once a panic.
+    let mut far = grainstat::samples::two_discs("linear", 1e5);
+    far.grains.x[1] = 1e300;
+    texts.push(toml::to_string(&far).expect("sample scenes serialise"));
     texts
 }
 
