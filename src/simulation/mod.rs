@@ -3,6 +3,7 @@
 
 mod energy;
 mod equations;
+mod grain_balance;
 mod increment;
 mod load_step;
 mod newton_step;

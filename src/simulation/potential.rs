@@ -5,6 +5,7 @@
 //! consistent tangent of the semi-smooth steps, and the grains that ran away.
 
 use super::equations::{IncrementEquations, CLOSING_OVERLAP, REACH};
+use super::grain_balance::{GrainBalance, LocalContact};
 use crate::contact::{friction, kinematics, Contact, Kinematics, Response};
 use crate::geometry::{chains, Side};
 use crate::solver::minimise::Potential;
@@ -19,6 +20,13 @@ const FLOOR_FORCE: f64 = 1e-8;
 /// (loaded, it is pushed inside and left out; unloaded, it springs back and is taken in).
 /// Held, the chain loads that grain or passes over it as the last change decided.
 pub const CHAIN_CHANGES: usize = 5;
+
+/// Gap, in mean radii, within which a pair apart takes part in a grain's own balance (it may
+/// close); pairs farther apart must stay apart.
+const NEAR_GAP: f64 = 1e-3;
+
+/// Share of the force scale below which a grain's own balance counts as exact.
+const BALANCED: f64 = 1e-13;
 
 impl IncrementEquations<'_> {
     /// The response of contact `c` in the minimisation (method note, step 2): the normal
@@ -363,6 +371,84 @@ impl Potential for IncrementEquations<'_> {
                 shears[i].trial -= shears[i].stiffness * r * d;
             }
         }
+    }
+
+    fn balance_grain(
+        &mut self,
+        u: &mut [f64],
+        residual: &[f64],
+        grain: usize,
+        hint: &mut Vec<u8>,
+    ) -> bool {
+        let g = grain;
+        if self.dofs.glue[g].is_some() || self.anchors.iter().any(|a| a.grain == g) {
+            return false;
+        }
+        self.configure(u);
+        let (base, unknowns) = (self.dofs.grain(g), self.dofs.per_grain);
+        let mut balance = GrainBalance {
+            law: self.law,
+            external: [0.0; 3],
+            unknowns,
+            tolerance: BALANCED * self.f_ref,
+            radius: self.grains.radius[g],
+            near: Vec::new(),
+            far: Vec::new(),
+        };
+        balance.external[..unknowns].copy_from_slice(&residual[base..base + unknowns]);
+        // The contacts' gradients on the grain's unknowns: `B_n` and `B_t` of
+        // `contact_block` where the grain is side `a` or `b`.
+        let on_grain = |k: &Kinematics, side_a: bool| {
+            let (n, t) = (k.normal, k.tangent);
+            if side_a {
+                ([n[0], n[1], 0.0], [-t[0], -t[1], -k.radius_a])
+            } else {
+                ([-n[0], -n[1], 0.0], [t[0], t[1], -k.radius_b])
+            }
+        };
+        for (c, evaluated) in self.contacts.iter().zip(self.kin.iter()) {
+            let side_a = matches!(c.pair.a, Side::Grain(a) if a == g);
+            if !(c.pair.b == g || side_a) || self.is_glue(c.pair) {
+                continue;
+            }
+            // The residual less this contact's force at the evaluation leaves what else
+            // pushes the grain.
+            let (bn, bt) = on_grain(evaluated, side_a);
+            for i in 0..3 {
+                balance.external[i] +=
+                    c.response.normal_force * bn[i] + c.response.shear_force * bt[i];
+            }
+            let k = kinematics(c.pair, self.grains, self.walls, self.q);
+            let (bn, bt) = on_grain(&k, side_a);
+            let branch = (!k.flat).then(|| {
+                let b0 = [k.normal[0] * k.distance, k.normal[1] * k.distance];
+                (b0, if side_a { -1.0 } else { 1.0 }, k.distance.signum())
+            });
+            let local = LocalContact {
+                overlap: k.overlap,
+                shear: k.shear_increment - c.shear_offset,
+                branch,
+                bn,
+                bt,
+                force0: c.shear_force0,
+                params: c.params,
+                bonded: c.bonded,
+            };
+            if c.bonded || k.overlap > -NEAR_GAP * self.r_mean {
+                balance.near.push(local);
+            } else {
+                balance.far.push(local);
+            }
+        }
+        let Some((d, states)) = balance.nearest(hint) else {
+            hint.clear();
+            return false;
+        };
+        *hint = states;
+        for (x, dx) in u[base..base + unknowns].iter_mut().zip(d) {
+            *x += dx;
+        }
+        true
     }
 
     fn runaway(&self, _u: &[f64]) -> Vec<usize> {

@@ -73,6 +73,19 @@ pub trait Potential {
     /// potential further after every accepted step.
     fn balance_rotations(&mut self, u: &mut [f64]);
 
+    /// Move grain `grain`, everything else held, to its exact equilibrium under the true
+    /// contact law (the friction limit following its own normal forces, not lagged), the
+    /// residual at `u` being `residual`: each contact's state (apart, sticking, sliding
+    /// either way) is tried in every combination and the consistent equilibrium nearest to
+    /// where the grain is taken. Returns whether it moved.
+    fn balance_grain(
+        &mut self,
+        u: &mut [f64],
+        residual: &[f64],
+        grain: usize,
+        hint: &mut Vec<u8>,
+    ) -> bool;
+
     /// The share of the step `du` from `u` after which the first pair apart now has closed to
     /// a small overlap (1 when none closes within the step).
     fn closing(&mut self, u: &[f64], du: &[f64]) -> f64;
@@ -145,7 +158,12 @@ const LAMBDA_START: f64 = 1e-4;
 /// Newton steps.
 const SEMISMOOTH_BELOW: f64 = 1e-2;
 
-/// Full steps in a row that did not halve the true residual before semi-smooth Newton takes
+/// The lag is refrozen once a step has brought the residual of the lagged problem below this
+/// share of the last true residual: the refrozen lag is a fixed-point iteration, and
+/// refreezing after every step, whatever the lagged problem's own progress, can cycle.
+const INNER: f64 = 0.1;
+
+/// Refreezes in a row that did not halve the true residual before semi-smooth Newton takes
 /// over: the refrozen lag is a fixed-point iteration, and where a sliding contact's friction
 /// drives it into itself (a grain wedged on a barely touching contact) it diverges.
 const LAG_STALLS: usize = 2;
@@ -194,6 +212,7 @@ pub fn minimise(
 
     let mut energy = eq.evaluate(u, &mut residual, Some(values), true)?;
     let (mut rel, mut worst, mut merit) = eq.residual_norm(&residual);
+    let mut true_merit = merit;
     let mut out = MinimiseOutcome {
         history: vec![rel],
         ..Default::default()
@@ -208,6 +227,8 @@ pub fn minimise(
     // Semi-smooth Newton: on once the lag stalls, off again where its step fails.
     let (mut semismooth, mut stalls) = (false, 0usize);
     let mut consistent = Vec::new();
+    // The grain last moved to its own equilibrium, with the states of its contacts there.
+    let mut balanced: (usize, Vec<u8>) = (usize::MAX, Vec::new());
     while !out.at_reach {
         if rel <= settings.tolerance {
             if frozen {
@@ -217,6 +238,7 @@ pub fn minimise(
             // Met with the lag held: test it on the true residual.
             energy = eq.evaluate(u, &mut residual, Some(values), true)?;
             (rel, worst, merit) = eq.residual_norm(&residual);
+            true_merit = merit;
             frozen = true;
             out.history.push(rel);
             if eq.needs_new_pattern() {
@@ -253,6 +275,7 @@ pub fn minimise(
             consistent.resize(values.len(), 0.0);
             eq.consistent_tangent(u, &mut residual, &mut consistent)?;
             (rel, worst, merit) = eq.residual_norm(&residual);
+            true_merit = merit;
             frozen = true;
             if rel <= settings.tolerance {
                 continue;
@@ -272,6 +295,7 @@ pub fn minimise(
                 (semismooth, stalls) = (false, 0);
                 energy = eq.evaluate(u, &mut residual, Some(values), true)?;
                 (rel, worst, merit) = eq.residual_norm(&residual);
+                true_merit = merit;
                 continue;
             }
             // A contact closing within the step has none of its stiffness in the tangent:
@@ -306,6 +330,12 @@ pub fn minimise(
             }
             energy = eq.evaluate(u, &mut residual, Some(values), true)?;
             (rel, worst, merit) = eq.residual_norm(&residual);
+            true_merit = merit;
+            if balance_worst(eq, u, &residual, rel, worst, settings, &mut balanced) {
+                energy = eq.evaluate(u, &mut residual, Some(values), true)?;
+                (rel, worst, merit) = eq.residual_norm(&residual);
+                true_merit = merit;
+            }
             out.history.push(rel);
             if eq.needs_new_pattern() || (accepted && alpha == reach && reach < 1.0) {
                 out.at_reach = true;
@@ -361,6 +391,20 @@ pub fn minimise(
             alpha = quadratic.clamp(0.1 * alpha, 0.5 * alpha);
         };
         let Some(trial_merit) = accepted else {
+            if !frozen {
+                // The lagged potential is as low as round-off lets it go: refreeze.
+                energy = eq.evaluate(u, &mut residual, Some(values), true)?;
+                (rel, worst, merit) = eq.residual_norm(&residual);
+                stalls = if merit > 0.5 * true_merit {
+                    stalls + 1
+                } else {
+                    0
+                };
+                true_merit = merit;
+                frozen = true;
+                out.history.push(rel);
+                continue;
+            }
             // No descent along a Newton direction: near round-off, or a Hessian far from the
             // potential's curvature. Regularise harder and try again from here.
             if lambda >= 1e6 {
@@ -376,16 +420,24 @@ pub fn minimise(
         };
         u.copy_from_slice(&trial_u);
         eq.balance_rotations(u);
-        // Refreeze while the residual falls; hold the lag while it does not.
-        let before = (merit, frozen);
-        frozen = trial_merit < merit;
+        // Refreeze once the lagged problem is solved well enough (an inexact inner solve of
+        // the fixed point on the lag); hold the lag until then.
+        frozen = trial_merit <= INNER * true_merit;
         energy = eq.evaluate(u, &mut residual, Some(values), frozen)?;
         (rel, worst, merit) = eq.residual_norm(&residual);
-        // Full, refrozen steps that do not halve the true residual: the lag stalls.
-        if before.1 && frozen && alpha == 1.0 && merit > 0.5 * before.0 {
-            stalls += 1;
-        } else {
-            stalls = 0;
+        if frozen {
+            // Refreezes that do not halve the true residual: the lag stalls.
+            stalls = if merit > 0.5 * true_merit {
+                stalls + 1
+            } else {
+                0
+            };
+            true_merit = merit;
+            if balance_worst(eq, u, &residual, rel, worst, settings, &mut balanced) {
+                energy = eq.evaluate(u, &mut residual, Some(values), true)?;
+                (rel, worst, merit) = eq.residual_norm(&residual);
+                true_merit = merit;
+            }
         }
         semismooth = stalls >= LAG_STALLS && rel < SEMISMOOTH_BELOW;
         out.history.push(rel);
@@ -402,6 +454,30 @@ pub fn minimise(
     out.residual = rel;
     out.worst_grain = worst;
     Ok(out)
+}
+
+/// Nonlinear elimination of the grain the global step leaves worst (method note, "One load
+/// increment"): while the residual is below [`SEMISMOOTH_BELOW`], after every refreeze that
+/// grain is moved to its exact equilibrium with the rest held ([`Potential::balance_grain`]),
+/// from the states its contacts had when it was last balanced. The global step cannot resolve
+/// a grain whose contacts sit on the edge of sticking, sliding or touching; the next global
+/// step starts from where the grain is balanced. Returns whether it moved.
+fn balance_worst(
+    eq: &mut dyn Potential,
+    u: &mut [f64],
+    residual: &[f64],
+    rel: f64,
+    worst: usize,
+    settings: &MinimiseSettings,
+    balanced: &mut (usize, Vec<u8>),
+) -> bool {
+    if rel >= SEMISMOOTH_BELOW || rel <= settings.tolerance {
+        return false;
+    }
+    if balanced.0 != worst {
+        *balanced = (worst, Vec::new());
+    }
+    eq.balance_grain(u, residual, worst, &mut balanced.1)
 }
 
 fn dot(a: &[f64], b: &[f64]) -> f64 {
