@@ -232,3 +232,56 @@ impl GrainBalance<'_> {
 fn dot(a: &[f64; 3], b: &[f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::contact::LinearCohesive;
+
+    /// A grain with its rotation fixed on a straight wall below it, just touching, pushed
+    /// down by 1 N and sideways by `push`.
+    fn on_wall(push: f64) -> GrainBalance<'static> {
+        let params = ContactParams {
+            stiffness: 1e6,
+            kappa: 0.8,
+            friction: 0.5,
+            strength: 0.0,
+        };
+        GrainBalance {
+            law: &LinearCohesive,
+            external: [push, -1.0, 0.0],
+            unknowns: 2,
+            tolerance: 1e-13,
+            radius: 1e-3,
+            near: vec![LocalContact {
+                overlap: 0.0,
+                shear: 0.0,
+                branch: None,
+                bn: [0.0, -1.0, 0.0],
+                bt: [1.0, 0.0, -1e-3],
+                force0: 0.0,
+                params,
+                bonded: false,
+            }],
+            far: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn a_grain_pushed_within_the_friction_limit_sticks_where_its_forces_balance() {
+        let balance = on_wall(0.1);
+        // The hint (sliding) and the state where the grain is (apart) do not hold; one change
+        // away, sticking does.
+        let (d, states) = balance.nearest(&[SLIDE_FORWARD]).expect("an equilibrium");
+        assert_eq!(states, vec![STICK]);
+        // N = k n = 1 N, F_s = kappa k dx = 0.1 N against the push.
+        assert!((d[1] + 1e-6).abs() < 1e-15, "{d:?}");
+        assert!((d[0] - 0.1 / 0.8e6).abs() < 1e-15, "{d:?}");
+    }
+
+    #[test]
+    fn a_grain_pushed_past_the_friction_limit_has_no_equilibrium_near() {
+        // 0.8 N sideways against at most f N = 0.5 N.
+        assert!(on_wall(0.8).nearest(&[]).is_none());
+    }
+}
