@@ -5,9 +5,12 @@
 //! the iterate puts them, any number per iteration; factorises the projected (positive
 //! semi-definite) Hessian once with the sparse Cholesky; and backtracks along the step until
 //! the potential falls. The friction of each contact is a convex potential with its normal
-//! force and shear stiffness lagged: refrozen at every accepted iterate whose residual fell,
-//! held while it does not (re-freezing at every step can cycle). Convergence is tested on
-//! the residual of a refrozen evaluation, which is the true, unlagged one.
+//! force and shear stiffness lagged: refrozen once the lagged problem is solved to a share of
+//! the true residual (an inexact inner solve; refreezing after every step can cycle).
+//! Convergence is tested on the residual of a refrozen evaluation, which is the true,
+//! unlagged one. Near the answer the grain the step leaves worst is balanced exactly on its
+//! own ([`Potential::balance_grain`]), and where the lag stalls, semi-smooth Newton steps
+//! on the consistent tangent take over.
 //!
 //! The minimiser knows neither the physics (the [`Potential`]) nor the linear solver beyond
 //! the [`LinearSolver`] contract.
