@@ -42,6 +42,7 @@ pub fn contact_block(
     r: &Response,
     map: &PairMap,
     tangent: BlockTangent,
+    exact_gradient: bool,
 ) -> LocalBlock {
     let symmetric = tangent != BlockTangent::Consistent;
     let projected = tangent == BlockTangent::Projected;
@@ -58,10 +59,24 @@ pub fn contact_block(
         -k.radius_b,
     ];
 
+    // The shear force pushes the centres along `B_t`, or, as the exact gradient of the
+    // contact's potential, along `S`: its tangent turns as the centres move.
+    let push = if exact_gradient {
+        [
+            -k.shear_scale * t[0],
+            -k.shear_scale * t[1],
+            -k.radius_a,
+            k.shear_scale * t[0],
+            k.shear_scale * t[1],
+            -k.radius_b,
+        ]
+    } else {
+        bt
+    };
     let mut f = [0.0; 6];
     let mut kl = [[0.0; 6]; 6];
     for a in 0..6 {
-        f[a] = -(r.normal_force * bn[a] + r.shear_force * bt[a]);
+        f[a] = -(r.normal_force * bn[a] + r.shear_force * push[a]);
         for b in 0..6 {
             kl[a][b] =
                 r.dfn_dn * bn[a] * bn[b] + r.dfs_dn * bt[a] * bn[b] + r.dfs_ds * bt[a] * s[b];

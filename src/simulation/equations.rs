@@ -234,6 +234,13 @@ pub struct IncrementEquations<'a> {
     pub consistent: bool,
     /// Stored energy of the contacts at the last evaluation (J).
     pub energy: f64,
+    /// Whether the shear forces push the centres as the exact gradient of the contacts'
+    /// potential (their tangent turning with the centres), the difference from the true
+    /// residual lagged in `frame_correction`.
+    pub exact_gradient: bool,
+    /// What the true residual had beyond the exact gradient at the last refreeze, held as a
+    /// load until the next (a lagged, non-conservative part, like a follower load's).
+    pub frame_correction: Vec<f64>,
 }
 
 impl IncrementEquations<'_> {
@@ -509,6 +516,7 @@ impl IncrementEquations<'_> {
         // unknowns; a glue contact's map is empty.
         let (walls, dofs, kin, contacts) = (self.walls, self.dofs, &*self.kin, &*self.contacts);
         let tangent_kind = self.block_tangent();
+        let exact = self.exact_gradient;
         self.pattern.scatter(
             self.pair_index,
             |i| {
@@ -522,7 +530,7 @@ impl IncrementEquations<'_> {
                     map
                 }
             },
-            |i, map| contact_block(&kin[i], &contacts[i].response, map, tangent_kind),
+            |i, map| contact_block(&kin[i], &contacts[i].response, map, tangent_kind, exact),
             residual,
             tangent.as_deref_mut(),
         );
@@ -537,6 +545,16 @@ impl IncrementEquations<'_> {
             self.membrane_loads(&mut loads, None);
             self.anchor_springs(u, &mut loads, None);
             self.glue_springs(u, &mut loads, None);
+            if self.exact_gradient {
+                for ((l, r), c) in loads
+                    .iter_mut()
+                    .zip(residual.iter_mut())
+                    .zip(&self.frame_correction)
+                {
+                    *l += c;
+                    *r += c;
+                }
+            }
             self.loads = loads;
         }
         // Force scale: the mean contact force (of those that touch, when every pair of the

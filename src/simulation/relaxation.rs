@@ -264,7 +264,7 @@ impl BlockEquations for GrainByGrain<'_> {
             self.eq.kin[idx] = k;
             let c = &self.eq.contacts[idx];
             let map = dofs.pair_map(c.pair, self.eq.push_direction(c.pair, idx));
-            let contact = contact_block(&k, &c.response, &map, self.eq.block_tangent());
+            let contact = contact_block(&k, &c.response, &map, self.eq.block_tangent(), false);
             // A sliding contact carrying a shear force: its shear displacement along the
             // block's unknowns (the rows of B_t = [-t, -r_a, t, -r_b] that feed them).
             let slip = c.response.sliding && c.response.shear_force != 0.0;

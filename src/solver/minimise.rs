@@ -365,6 +365,8 @@ pub fn minimise(
         let mut alpha = reach;
         loads.copy_from_slice(eq.loads());
         let scale = energy.abs() + dot(&loads, u).abs();
+        // Whether the step taken changed the potential by no more than round-off.
+        let mut flat = false;
         let accepted = loop {
             for k in 0..n {
                 trial_u[k] = u[k] + alpha * du[k];
@@ -384,6 +386,7 @@ pub fn minimise(
             let hidden = fall.abs() <= ROUNDOFF * scale && t_merit < merit;
             let near = rel < NEAR && t_merit <= (1.0 - ARMIJO * alpha) * merit;
             if fall.is_finite() && (armijo || hidden || near || t_rel <= settings.tolerance) {
+                flat = fall.abs() <= ROUNDOFF * scale;
                 break Some(t_merit);
             }
             if alpha < MIN_STEP {
@@ -424,8 +427,9 @@ pub fn minimise(
         u.copy_from_slice(&trial_u);
         eq.balance_rotations(u);
         // Refreeze once the lagged problem is solved well enough (an inexact inner solve of
-        // the fixed point on the lag); hold the lag until then.
-        frozen = trial_merit <= INNER * true_merit;
+        // the fixed point on the lag), or as far as round-off lets its potential fall (at a
+        // kink of a friction potential the gradient need not vanish); hold the lag until then.
+        frozen = trial_merit <= INNER * true_merit || flat;
         energy = eq.evaluate(u, &mut residual, Some(values), frozen)?;
         (rel, worst, merit) = eq.residual_norm(&residual);
         if frozen {
