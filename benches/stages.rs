@@ -143,7 +143,6 @@ fn stages(c: &mut Criterion) {
             far: false,
             load_scale: 0.0,
             lagged: false,
-            exact_gradient: false,
             frame_correction: Vec::new(),
             refreeze: false,
             projected: false,

@@ -49,30 +49,11 @@ pub fn contact_block(
     let (n, t) = (k.normal, k.tangent);
     let bn = [n[0], n[1], 0.0, -n[0], -n[1], 0.0];
     let bt = [-t[0], -t[1], -k.radius_a, t[0], t[1], -k.radius_b];
-    let g = if symmetric { 1.0 } else { k.shear_scale };
-    let s = [
-        -g * t[0],
-        -g * t[1],
-        -k.radius_a,
-        g * t[0],
-        g * t[1],
-        -k.radius_b,
-    ];
-
+    let scaled = turning_push(k);
+    let s = if symmetric { bt } else { scaled };
     // The shear force pushes the centres along `B_t`, or, as the exact gradient of the
     // contact's potential, along `S`: its tangent turns as the centres move.
-    let push = if exact_gradient {
-        [
-            -k.shear_scale * t[0],
-            -k.shear_scale * t[1],
-            -k.radius_a,
-            k.shear_scale * t[0],
-            k.shear_scale * t[1],
-            -k.radius_b,
-        ]
-    } else {
-        bt
-    };
+    let push = if exact_gradient { scaled } else { bt };
     let mut f = [0.0; 6];
     let mut kl = [[0.0; 6]; 6];
     for a in 0..6 {
@@ -107,10 +88,40 @@ pub fn contact_block(
         }
     }
 
+    reduce(&f, Some(&kl), map)
+}
+
+/// What the true push of a contact's shear force on its sides (along `B_t`) has beyond its
+/// push as the exact gradient of the contact's potential (along `S`), reduced to the unknowns
+/// of `map`: the part of the force the turning tangent leaves out of the potential.
+pub fn frame_turn_force(k: &Kinematics, r: &Response, map: &PairMap) -> LocalBlock {
+    let t = k.tangent;
+    let bt = [-t[0], -t[1], -k.radius_a, t[0], t[1], -k.radius_b];
+    let scaled = turning_push(k);
+    let f: [f64; 6] = std::array::from_fn(|a| -r.shear_force * (bt[a] - scaled[a]));
+    reduce(&f, None, map)
+}
+
+/// `S = ds/dq`: `B_t` with the centre entries scaled by `1 - (dd . n)/d`, as the tangent turns.
+fn turning_push(k: &Kinematics) -> [f64; 6] {
+    let (t, g) = (k.tangent, k.shear_scale);
+    [
+        -g * t[0],
+        -g * t[1],
+        -k.radius_a,
+        g * t[0],
+        g * t[1],
+        -k.radius_b,
+    ]
+}
+
+/// The local force (and tangent) reduced to the unknowns of `map`.
+fn reduce(f: &[f64; 6], kl: Option<&[[f64; 6]; 6]>, map: &PairMap) -> LocalBlock {
     let mut out = LocalBlock::default();
     for (a, feeds_a) in map.feeds.iter().enumerate() {
         for &(ra, wa) in feeds_a.iter().flatten() {
             out.force[ra] += wa * f[a];
+            let Some(kl) = kl else { continue };
             for (b, feeds_b) in map.feeds.iter().enumerate() {
                 for &(rb, wb) in feeds_b.iter().flatten() {
                     out.stiffness[ra][rb] += wa * wb * kl[a][b];

@@ -8,7 +8,7 @@
 
 mod local;
 
-pub use local::{contact_block, BlockTangent, LocalBlock};
+pub use local::{contact_block, frame_turn_force, BlockTangent, LocalBlock};
 
 use crate::geometry::{Chain, FriendSet, Pair, Side, WallSet};
 use crate::parallel;

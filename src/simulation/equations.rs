@@ -2,7 +2,7 @@
 //! unknown, and the tangent `K = -dR/du`, assembled into the fixed pattern.
 
 use super::LoadStep;
-use crate::assembly::{contact_block, BlockTangent, DofMap, PairMap, Pattern};
+use crate::assembly::{contact_block, frame_turn_force, BlockTangent, DofMap, PairMap, Pattern};
 use crate::contact::{kinematics, Configuration, Contact, ContactLaw, Kinematics, SlipTangent};
 use crate::geometry::{
     chains, extent_along, rotate, Chain, FriendSet, GrainSet, Membrane, MembraneShape, Pair, Side,
@@ -234,10 +234,6 @@ pub struct IncrementEquations<'a> {
     pub consistent: bool,
     /// Stored energy of the contacts at the last evaluation (J).
     pub energy: f64,
-    /// Whether the shear forces push the centres as the exact gradient of the contacts'
-    /// potential (their tangent turning with the centres), the difference from the true
-    /// residual lagged in `frame_correction`.
-    pub exact_gradient: bool,
     /// What the true residual had beyond the exact gradient at the last refreeze, held as a
     /// load until the next (a lagged, non-conservative part, like a follower load's).
     pub frame_correction: Vec<f64>,
@@ -516,24 +512,41 @@ impl IncrementEquations<'_> {
         // unknowns; a glue contact's map is empty.
         let (walls, dofs, kin, contacts) = (self.walls, self.dofs, &*self.kin, &*self.contacts);
         let tangent_kind = self.block_tangent();
-        let exact = self.exact_gradient;
+        // In the lagged problem the shear forces push as the exact gradient of the potential;
+        // what the true residual has beyond that is taken at each refreeze and held as a load
+        // until the next (a lagged non-conservative part, like a follower load's), so that the
+        // line search and the residual agree and a refrozen residual is the true one.
+        let exact = self.lagged && !self.consistent;
+        let map_of = |i: usize| {
+            let map = dofs.pair_map(
+                contacts[i].pair,
+                push_direction(walls, contacts[i].pair, &kin[i]),
+            );
+            if glue[i] {
+                PairMap { len: 0, ..map }
+            } else {
+                map
+            }
+        };
         self.pattern.scatter(
             self.pair_index,
-            |i| {
-                let map = dofs.pair_map(
-                    contacts[i].pair,
-                    push_direction(walls, contacts[i].pair, &kin[i]),
-                );
-                if glue[i] {
-                    PairMap { len: 0, ..map }
-                } else {
-                    map
-                }
-            },
+            map_of,
             |i, map| contact_block(&kin[i], &contacts[i].response, map, tangent_kind, exact),
             residual,
             tangent.as_deref_mut(),
         );
+        if exact && self.refreeze {
+            let correction = &mut self.frame_correction;
+            correction.clear();
+            correction.resize(residual.len(), 0.0);
+            self.pattern.scatter(
+                self.pair_index,
+                map_of,
+                |i, map| frame_turn_force(&kin[i], &contacts[i].response, map),
+                correction,
+                None,
+            );
+        }
         self.membrane_loads(residual, tangent.as_deref_mut());
         self.anchor_springs(u, residual, tangent.as_deref_mut());
         self.glue_springs(u, residual, tangent);
@@ -545,7 +558,7 @@ impl IncrementEquations<'_> {
             self.membrane_loads(&mut loads, None);
             self.anchor_springs(u, &mut loads, None);
             self.glue_springs(u, &mut loads, None);
-            if self.exact_gradient {
+            if exact {
                 for ((l, r), c) in loads
                     .iter_mut()
                     .zip(residual.iter_mut())

@@ -454,7 +454,6 @@ impl Simulation {
             far: false,
             load_scale: 0.0,
             lagged: self.config.strategy == Strategy::Minimise,
-            exact_gradient: false,
             frame_correction: Vec::new(),
             refreeze: false,
             projected: self.config.strategy == Strategy::Minimise,

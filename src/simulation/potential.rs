@@ -163,39 +163,10 @@ impl Potential for IncrementEquations<'_> {
         tangent: Option<&mut [f64]>,
         refreeze: bool,
     ) -> Result<f64, NumericError> {
-        // Between refreezes the residual is the exact gradient of the lagged potential (the
-        // shear frame's turn included), plus what the true residual had beyond it at the last
-        // refreeze, held as a load: a lagged non-conservative part, like a follower load's.
-        // The line search on the potential and the residual then agree, and at a refreeze
-        // the residual is the true one.
-        if !refreeze {
-            self.exact_gradient = true;
-            return self.evaluate_at(u, residual, tangent).map(|()| self.energy);
-        }
-        // The true residual, refreezing the lag; then the exact gradient at the same point.
-        self.exact_gradient = false;
-        self.refreeze = true;
-        let result = self.evaluate_at(u, residual, None);
+        self.refreeze = refreeze;
+        let result = self.evaluate_at(u, residual, tangent);
         self.refreeze = false;
-        result?;
-        let physical = residual.to_vec();
-        self.exact_gradient = true;
-        self.frame_correction.clear();
-        self.evaluate_at(u, residual, tangent)?;
-        self.frame_correction = physical
-            .iter()
-            .zip(residual.iter())
-            .map(|(p, r)| p - r)
-            .collect();
-        for ((r, l), (p, c)) in residual
-            .iter_mut()
-            .zip(self.loads.iter_mut())
-            .zip(physical.iter().zip(&self.frame_correction))
-        {
-            *r = *p;
-            *l += c;
-        }
-        Ok(self.energy)
+        result.map(|()| self.energy)
     }
 
     fn loads(&self) -> &[f64] {
@@ -258,7 +229,6 @@ impl Potential for IncrementEquations<'_> {
         residual: &mut [f64],
         tangent: &mut [f64],
     ) -> Result<(), NumericError> {
-        self.exact_gradient = false;
         let (symmetric, projected) = (self.symmetric, self.projected);
         (
             self.symmetric,
