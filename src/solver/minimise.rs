@@ -5,8 +5,9 @@
 //! the iterate puts them, any number per iteration; factorises the projected (positive
 //! semi-definite) Hessian once with the sparse Cholesky; and backtracks along the step until
 //! the potential falls. The friction of each contact is a convex potential with its normal
-//! force and shear stiffness lagged: refrozen once the lagged problem is solved to a share of
-//! the true residual (an inexact inner solve; refreezing after every step can cycle).
+//! force and shear stiffness lagged: refrozen after every step far from the answer, and near
+//! it once the lagged problem is solved to a share of the true residual (an inexact inner
+//! solve; refreezing after every step there can cycle).
 //! Convergence is tested on the residual of a refrozen evaluation, which is the true,
 //! unlagged one. Near the answer the grain the step leaves worst is balanced exactly on its
 //! own ([`Potential::balance_grain`]), and where the lag stalls, semi-smooth Newton steps
@@ -165,6 +166,12 @@ const SEMISMOOTH_BELOW: f64 = 1e-2;
 /// share of the last true residual: the refrozen lag is a fixed-point iteration, and
 /// refreezing after every step, whatever the lagged problem's own progress, can cycle.
 const INNER: f64 = 0.1;
+
+/// Relative residual below which the lag is held between refreezes ([`INNER`]). Above it the
+/// lag is refrozen after every accepted step: there the normal forces change more over a step
+/// than the lagged problem's own residual falls (a rearrangement, contacts made and lost, a
+/// bond broken), and a lag held from an earlier iterate only drags the steps back towards it.
+const HOLD_BELOW: f64 = 1e-3;
 
 /// Refreezes in a row that did not halve the true residual before semi-smooth Newton takes
 /// over: the refrozen lag is a fixed-point iteration, and where a sliding contact's friction
@@ -426,10 +433,11 @@ pub fn minimise(
         };
         u.copy_from_slice(&trial_u);
         eq.balance_rotations(u);
-        // Refreeze once the lagged problem is solved well enough (an inexact inner solve of
-        // the fixed point on the lag), or as far as round-off lets its potential fall (at a
-        // kink of a friction potential the gradient need not vanish); hold the lag until then.
-        frozen = trial_merit <= INNER * true_merit || flat;
+        // Far from the answer, refreeze after every step. Near it, refreeze once the lagged
+        // problem is solved well enough (an inexact inner solve of the fixed point on the
+        // lag), or as far as round-off lets its potential fall (at a kink of a friction
+        // potential the gradient need not vanish); hold the lag until then.
+        frozen = trial_merit <= INNER * true_merit || flat || rel > HOLD_BELOW;
         energy = eq.evaluate(u, &mut residual, Some(values), frozen)?;
         (rel, worst, merit) = eq.residual_norm(&residual);
         if frozen {
