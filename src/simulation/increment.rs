@@ -1,11 +1,12 @@
 //! One load increment by the global solver (method note, "One load increment"): every
 //! friends-list pair engaged as a contact, the incremental potential minimised from the
-//! predictor, the friends lists made anew wherever a step reaches their edge, bonds broken
-//! one at a time with the grains settled anew after each, then the commit.
+//! predictor (or from the committed state where that is nearer equilibrium), the friends
+//! lists made anew wherever a step reaches their edge, bonds broken one at a time with the
+//! grains settled anew after each, then the commit.
 
 use super::{friends_around, LoadStep, Simulation, REACH_REBUILD};
 use crate::contact::{kinematics, BrokenBond, Configuration, Contact, Lag};
-use crate::solver::minimise::{self, MinimiseSettings, SystemMatrix};
+use crate::solver::minimise::{self, MinimiseSettings, Potential, SystemMatrix};
 use crate::solver::stats::secs;
 use crate::state::IncrementReport;
 use crate::NumericError;
@@ -65,13 +66,8 @@ impl Simulation {
     ) -> Result<Vec<f64>, NumericError> {
         self.start_step();
         self.start_newton()?;
-        let mut u = self.predictor();
         self.engage_pairs();
-        // The lag starts afresh in every increment, as it does in a resumed run.
-        for c in &mut self.state.contacts.contacts {
-            c.lag = Lag::default();
-        }
-        self.renew_lists_if_far(step, &u)?;
+        let mut u = self.start_point(step)?;
         loop {
             self.minimise(step, &mut u, report)?;
             if !self.break_most_overloaded_bond() {
@@ -81,8 +77,51 @@ impl Simulation {
         }
     }
 
-    /// Where the increment starts: the last increment's displacements when it was a step of
-    /// the same stage on the same unknowns (the step is the same), else nothing moved.
+    /// Where the minimisation starts, with the friends lists reaching it: the predictor where
+    /// it is nearer equilibrium than the committed state, else the committed state. The last
+    /// increment's displacements extrapolate its smooth part well, but a grain that snapped
+    /// through in it would be thrown on by as much again, into its neighbours.
+    fn start_point(&mut self, step: &LoadStep) -> Result<Vec<f64>, NumericError> {
+        let predicted = self.predictor();
+        let at_rest = vec![0.0; predicted.len()];
+        if predicted == at_rest {
+            self.fresh_lag();
+            return Ok(predicted);
+        }
+        // The committed state first, while the lists are still made around it.
+        let rest_merit = self.merit_at(step, &at_rest)?;
+        self.renew_lists_if_far(step, &predicted)?;
+        if self.merit_at(step, &predicted)? <= rest_merit {
+            self.fresh_lag();
+            return Ok(predicted);
+        }
+        self.renew_lists_if_far(step, &at_rest)?;
+        self.fresh_lag();
+        Ok(at_rest)
+    }
+
+    /// `|R|_2 / F_ref` at `u`, the lag taken there.
+    fn merit_at(&mut self, step: &LoadStep, u: &[f64]) -> Result<f64, NumericError> {
+        self.fresh_lag();
+        let mut residual = vec![0.0; u.len()];
+        let mut eq = self.equations(step);
+        eq.evaluate(u, &mut residual, None, true)?;
+        let merit = eq.residual_norm(&residual).2;
+        let timers = eq.timers;
+        self.stats.timers.return_map += timers.return_map;
+        self.stats.timers.assembly += timers.assembly;
+        Ok(merit)
+    }
+
+    /// The lag starts afresh in every increment, as it does in a resumed run.
+    fn fresh_lag(&mut self) {
+        for c in &mut self.state.contacts.contacts {
+            c.lag = Lag::default();
+        }
+    }
+
+    /// The last increment's displacements when it was a step of the same stage on the same
+    /// unknowns (the step is the same), else nothing moved.
     fn predictor(&self) -> Vec<f64> {
         let last = &self.state.last_step;
         if self.state.stage_increment > 0 && last.len() == self.dofs.len {
