@@ -82,22 +82,19 @@ impl Simulation {
     /// increment's displacements extrapolate its smooth part well, but a grain that snapped
     /// through in it would be thrown on by as much again, into its neighbours.
     fn start_point(&mut self, step: &LoadStep) -> Result<Vec<f64>, NumericError> {
-        let predicted = self.predictor();
-        let at_rest = vec![0.0; predicted.len()];
-        if predicted == at_rest {
-            self.fresh_lag();
-            return Ok(predicted);
+        let mut start = self.predictor();
+        let at_rest = vec![0.0; start.len()];
+        if start != at_rest {
+            // The committed state first, while the lists are still made around it.
+            let rest_merit = self.merit_at(step, &at_rest)?;
+            self.renew_lists_if_far(step, &start)?;
+            if self.merit_at(step, &start)? > rest_merit {
+                start = at_rest;
+            }
         }
-        // The committed state first, while the lists are still made around it.
-        let rest_merit = self.merit_at(step, &at_rest)?;
-        self.renew_lists_if_far(step, &predicted)?;
-        if self.merit_at(step, &predicted)? <= rest_merit {
-            self.fresh_lag();
-            return Ok(predicted);
-        }
-        self.renew_lists_if_far(step, &at_rest)?;
+        self.renew_lists_if_far(step, &start)?;
         self.fresh_lag();
-        Ok(at_rest)
+        Ok(start)
     }
 
     /// `|R|_2 / F_ref` at `u`, the lag taken there.
@@ -108,8 +105,7 @@ impl Simulation {
         eq.evaluate(u, &mut residual, None, true)?;
         let merit = eq.residual_norm(&residual).2;
         let timers = eq.timers;
-        self.stats.timers.return_map += timers.return_map;
-        self.stats.timers.assembly += timers.assembly;
+        self.add_timers(timers);
         Ok(merit)
     }
 

@@ -467,11 +467,16 @@ impl Simulation {
 
     /// Take back the counters and the value buffer a solve worked on, with the time its
     /// equations spent in the return map and the assembly.
-    fn take_back(&mut self, mut stats: SolverStats, timers: StageTimers, values: Vec<f64>) {
-        stats.timers.return_map += timers.return_map;
-        stats.timers.assembly += timers.assembly;
+    fn take_back(&mut self, stats: SolverStats, timers: StageTimers, values: Vec<f64>) {
         self.stats = stats;
+        self.add_timers(timers);
         self.values = values;
+    }
+
+    /// Add the time equations spent in the return map and the assembly to the run's.
+    fn add_timers(&mut self, timers: StageTimers) {
+        self.stats.timers.return_map += timers.return_map;
+        self.stats.timers.assembly += timers.assembly;
     }
 
     /// Friends lists around the given positions, and the pattern and symbolic factorisation

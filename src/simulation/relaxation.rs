@@ -89,9 +89,8 @@ impl Simulation {
         let mut blocks = GrainByGrain::new(self.equations(step));
         let result = relaxation::relax(&mut blocks, u, &settings, &mut stats);
         let timers = blocks.eq.timers;
-        stats.timers.return_map += timers.return_map;
-        stats.timers.assembly += timers.assembly;
         self.stats = stats;
+        self.add_timers(timers);
         result
     }
 }

@@ -126,8 +126,7 @@ impl Simulation {
         let evaluated = eq.evaluate(u, &mut residual, Some(&mut values));
         let unit: Vec<f64> = (0..dofs.len).map(|dof| eq.unit_stiffness(dof)).collect();
         let timers = eq.timers;
-        self.stats.timers.return_map += timers.return_map;
-        self.stats.timers.assembly += timers.assembly;
+        self.add_timers(timers);
         evaluated.ok()?;
         let scaled = scaled_tangent(pattern, &values, &unit);
         let matrix = SparseColMatRef::new(pattern.symbolic.as_ref(), &scaled);

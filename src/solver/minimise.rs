@@ -79,9 +79,10 @@ pub trait Potential {
 
     /// Move grain `grain`, everything else held, to its exact equilibrium under the true
     /// contact law (the friction limit following its own normal forces, not lagged), the
-    /// residual at `u` being `residual`: each contact's state (apart, sticking, sliding
-    /// either way) is tried in every combination and the consistent equilibrium nearest to
-    /// where the grain is taken. Returns whether it moved.
+    /// residual at `u` being `residual`: its contacts' states (apart, sticking, sliding
+    /// either way) are tried from `hint`, then as the law gives them where the grain is, then
+    /// every assignment one or two changes away, the nearest consistent equilibrium first;
+    /// `hint` is left with the states found. Returns whether it moved.
     fn balance_grain(
         &mut self,
         u: &mut [f64],
@@ -246,8 +247,7 @@ pub fn minimise(
                 break;
             }
             // Met with the lag held: test it on the true residual.
-            energy = eq.evaluate(u, &mut residual, Some(values), true)?;
-            (rel, worst, merit) = eq.residual_norm(&residual);
+            (energy, (rel, worst, merit)) = refrozen(eq, u, &mut residual, values)?;
             true_merit = merit;
             frozen = true;
             out.history.push(rel);
@@ -303,8 +303,7 @@ pub fn minimise(
                 // The Hessian is no preconditioner of the consistent tangent here: back to
                 // the lagged minimisation.
                 (semismooth, stalls) = (false, 0);
-                energy = eq.evaluate(u, &mut residual, Some(values), true)?;
-                (rel, worst, merit) = eq.residual_norm(&residual);
+                (energy, (rel, worst, merit)) = refrozen(eq, u, &mut residual, values)?;
                 true_merit = merit;
                 continue;
             }
@@ -338,12 +337,10 @@ pub fn minimise(
                 semismooth = false;
                 lambda = (100.0 * lambda).max(1e-4);
             }
-            energy = eq.evaluate(u, &mut residual, Some(values), true)?;
-            (rel, worst, merit) = eq.residual_norm(&residual);
+            (energy, (rel, worst, merit)) = refrozen(eq, u, &mut residual, values)?;
             true_merit = merit;
             if balance_worst(eq, u, &residual, rel, worst, settings, &mut balanced) {
-                energy = eq.evaluate(u, &mut residual, Some(values), true)?;
-                (rel, worst, merit) = eq.residual_norm(&residual);
+                (energy, (rel, worst, merit)) = refrozen(eq, u, &mut residual, values)?;
                 true_merit = merit;
             }
             out.history.push(rel);
@@ -406,13 +403,8 @@ pub fn minimise(
         let Some(trial_merit) = accepted else {
             if !frozen {
                 // The lagged potential is as low as round-off lets it go: refreeze.
-                energy = eq.evaluate(u, &mut residual, Some(values), true)?;
-                (rel, worst, merit) = eq.residual_norm(&residual);
-                stalls = if merit > 0.5 * true_merit {
-                    stalls + 1
-                } else {
-                    0
-                };
+                (energy, (rel, worst, merit)) = refrozen(eq, u, &mut residual, values)?;
+                stalls = lag_stalls(stalls, merit, true_merit);
                 true_merit = merit;
                 frozen = true;
                 out.history.push(rel);
@@ -441,16 +433,10 @@ pub fn minimise(
         energy = eq.evaluate(u, &mut residual, Some(values), frozen)?;
         (rel, worst, merit) = eq.residual_norm(&residual);
         if frozen {
-            // Refreezes that do not halve the true residual: the lag stalls.
-            stalls = if merit > 0.5 * true_merit {
-                stalls + 1
-            } else {
-                0
-            };
+            stalls = lag_stalls(stalls, merit, true_merit);
             true_merit = merit;
             if balance_worst(eq, u, &residual, rel, worst, settings, &mut balanced) {
-                energy = eq.evaluate(u, &mut residual, Some(values), true)?;
-                (rel, worst, merit) = eq.residual_norm(&residual);
+                (energy, (rel, worst, merit)) = refrozen(eq, u, &mut residual, values)?;
                 true_merit = merit;
             }
         }
@@ -493,6 +479,27 @@ fn balance_worst(
         *balanced = (worst, Vec::new());
     }
     eq.balance_grain(u, residual, worst, &mut balanced.1)
+}
+
+/// Evaluate at `u` on a lag refrozen there: the stored energy and the residual's norms.
+fn refrozen(
+    eq: &mut dyn Potential,
+    u: &[f64],
+    residual: &mut [f64],
+    values: &mut [f64],
+) -> Result<(f64, (f64, usize, f64)), NumericError> {
+    let energy = eq.evaluate(u, residual, Some(values), true)?;
+    Ok((energy, eq.residual_norm(residual)))
+}
+
+/// Refreezes in a row that did not halve the true residual (from `before` to `merit`): the
+/// lag stalls.
+fn lag_stalls(stalls: usize, merit: f64, before: f64) -> usize {
+    if merit > 0.5 * before {
+        stalls + 1
+    } else {
+        0
+    }
 }
 
 fn dot(a: &[f64], b: &[f64]) -> f64 {
