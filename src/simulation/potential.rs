@@ -48,7 +48,13 @@ impl IncrementEquations<'_> {
             lag.unloading = lag.overlap > 0.0 && n <= 0.5 * lag.overlap;
             lag.overlap = n;
             lag.shear_stiffness = self.law.shear_stiffness(&c.params, n).0;
-            lag.limit = if c.bonded || c.params.friction.is_infinite() {
+            // A pair apart at the start of the increment, found touching for the first time,
+            // sticks until the next refreeze: on the load path its shear and normal force grow
+            // together from zero at first touch, and a limit lagged from where it carried
+            // nothing would let it slide without friction (a grain that two neighbours close
+            // on would slide out of the wedge they make instead of being held in it).
+            let first_touch = c.start_overlap < 0.0 && !c.bonded && !lag.touched && n > 0.0;
+            lag.limit = if c.bonded || c.params.friction.is_infinite() || first_touch {
                 f64::INFINITY
             } else {
                 c.params.friction * normal_force.max(0.0)
