@@ -11,7 +11,7 @@ use grainstat::output::{
 };
 use grainstat::simulation::EnergyBalance;
 use grainstat::solver::stats::SolverStats;
-use grainstat::state::{IncrementReport, State};
+use grainstat::state::{Breakout, IncrementReport, State};
 use grainstat::Error;
 use std::path::Path;
 use std::sync::Mutex;
@@ -177,10 +177,23 @@ fn state(k: usize) -> State {
         increment: 1,
         mode: BreakMode::Shear,
     }];
+    // From increment 2 on, grain 3 has broken out (when the top wall carried its stress).
+    let breakouts: Vec<Breakout> = (k >= 2)
+        .then(|| Breakout {
+            increment: 2,
+            grains: vec![3],
+            bonds_broken: 1,
+            pressure: Vec::new(),
+            stress: vec![None, None, Some(1.0e5 + 1.0e3 / 3.0), None],
+        })
+        .into_iter()
+        .collect();
+    grains.taken_out[3] = k >= 2;
     State {
         increment: k,
         stage: k / 2,
         stage_increment: k % 2,
+        breakouts,
         grains,
         walls,
         contacts: ContactSet {
@@ -232,6 +245,7 @@ fn report(s: &State) -> IncrementReport {
             stored_change: kf,
             dissipated: 0.5 * kf,
             bonds_released: 0.25 * kf,
+            taken_out: 0.125 * kf,
         },
     }
 }
@@ -320,7 +334,8 @@ fn every_increment_reads_back_exactly() {
     assert_eq!(history.float("energy_stored"), [11.0, 12.0, 13.0]);
     assert_eq!(history.float("energy_dissipated"), [0.5, 1.0, 1.5]);
     assert_eq!(history.float("energy_bonds_released"), [0.25, 0.5, 0.75]);
-    assert_eq!(history.float("energy_imbalance"), [0.125, 0.125, 0.125]);
+    assert_eq!(history.float("energy_taken_out"), [0.125, 0.25, 0.375]);
+    assert_eq!(history.float("energy_imbalance"), [0.0625, 0.0625, 0.0625]);
     assert_eq!(history.region("region_stress_xx")[1], [3.0e5 + 2.0, 5.0]);
     assert_eq!(history.region("region_stress_xy")[2], [1.0, 6.0]);
     assert_eq!(history.region("region_stress_yx")[2], [2.0, 7.0]);
@@ -332,6 +347,7 @@ fn every_increment_reads_back_exactly() {
         "increments  3 written, 1 .. 3",
         "top",
         "macro stress",
+        "breakouts          1: increment 2 (1 grain, 1 bond broken; top 1.0033e5 Pa)",
     ] {
         assert!(text.contains(needle), "info lacks {needle:?}:\n{text}");
     }
@@ -402,6 +418,7 @@ fn empty_and_large_sets_work() {
     let mut s = state(5);
     s.grains = GrainSet::new(position.clone(), vec![0.5; n]);
     s.grains.rotation = (0..n).map(|i| (i as f64).sin() * 1e-3).collect();
+    s.grains.taken_out[3] = true;
     s.contacts.contacts = (0..n - 1)
         .map(|i| {
             contact(
@@ -493,6 +510,48 @@ fn bad_files_are_input_errors() {
     ));
 }
 
+/// Files from before grains were taken out have no `breakouts`: none is. Breakouts that name
+/// a grain there is not, or one grain twice, are bad input.
+#[test]
+fn breakouts_read_back_and_are_checked() {
+    let _serial = serial();
+    let dir = tempfile::tempdir().unwrap();
+    let write = |name: &str, s: &State| {
+        let path = dir.path().join(name);
+        let mut file = ResultFile::create(&path, &header(s)).unwrap();
+        file.write_increment(s, &report(s), &stats(2)).unwrap();
+        path
+    };
+    let s = state(2);
+    let old = write("old.h5", &s);
+    hdf5::File::open_rw(&old)
+        .unwrap()
+        .unlink("increments/00000002/breakouts")
+        .unwrap();
+    let (_, back) = read_state(&old, 2).unwrap();
+    assert!(back.breakouts.is_empty() && !back.grains.taken_out.contains(&true));
+
+    let absent = write("absent.h5", &s);
+    hdf5::File::open_rw(&absent)
+        .unwrap()
+        .dataset("increments/00000002/breakouts/grains")
+        .unwrap()
+        .write_raw(&[9i64][..])
+        .unwrap();
+    let mut twice = s.clone();
+    twice.breakouts.push(twice.breakouts[0].clone());
+    let twice = write("twice.h5", &twice);
+    for (path, message) in [
+        (absent, "names grain 9"),
+        (twice, "grain 3 is taken out twice"),
+    ] {
+        match read_state(&path, 2) {
+            Err(Error::Input(e)) => assert!(e.message.contains(message), "{e}"),
+            other => panic!("expected an input error, got {:?}", other.map(|_| ())),
+        }
+    }
+}
+
 const PYTHON_CHECK: &str = r#"
 import sys, math
 import h5py
@@ -520,6 +579,12 @@ with h5py.File(sys.argv[1], "r") as f:
     assert g["walls/position"].shape == (4,) and g["walls/position"][2] == 1e-6 * 3.0
     assert g["macro_stress"].shape == (2, 2) and g["macro_stress"][0, 0] == 1.0e5 + 3
     assert g["broken_bonds"].shape == (1, 4) and list(g["broken_bonds"][0]) == [2, 3, 1, 1]
+    b = g["breakouts"]
+    assert list(b["increment"][...]) == [2] and list(b["grain_count"][...]) == [1]
+    assert list(b["grains"][...]) == [3] and list(b["bonds_broken"][...]) == [1]
+    assert b["membrane_pressure"].shape == (1, 0) and b["wall_stress"].shape == (1, 4)
+    assert np.isnan(b["wall_stress"][0, 0]) and b["wall_stress"][0, 2] == 1.0e5 + 1.0e3 / 3.0
+    assert "breakouts" in f["increments/00000002"] and len(f["increments/00000001/breakouts/grains"]) == 0
     h = f["history"]
     assert list(h["increment"][...]) == [1, 2, 3]
     assert h["wall_stress"].shape == (3, 4) and h["wall_stress"][2, 0] == 5.0e4 + 3

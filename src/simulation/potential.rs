@@ -142,6 +142,7 @@ impl IncrementEquations<'_> {
             &self.q.position,
             &self.grains.radius,
             self.carriers,
+            &self.grains.taken_out,
         );
         if chains
             .iter()
@@ -387,7 +388,7 @@ impl Potential for IncrementEquations<'_> {
         hint: &mut Vec<u8>,
     ) -> bool {
         let g = grain;
-        if self.dofs.glue[g].is_some() || self.anchors.iter().any(|a| a.grain == g) {
+        if self.dofs.grain_held(g) || self.anchors.iter().any(|a| a.grain == g) {
             return false;
         }
         self.configure(u);

@@ -138,6 +138,7 @@ pub(super) fn write_group_state(g: &Group, state: &State, report: &IncrementRepo
         ArrayView2::from(&state.friends_wall_reference[..]),
     )?;
     put(g, "last_step", ArrayView1::from(&state.last_step[..]))?;
+    write_breakouts(g, state)?;
 
     let count = |v: usize| v as i64;
     set_attr(g, "increment", &count(state.increment))?;
@@ -162,12 +163,13 @@ pub(super) fn read_group_state(g: &Group, h: &RunHeader) -> R<State> {
     let n = h.radius.len();
     let nw = h.walls.len();
     let grains = g.group("grains")?;
-    let grains = GrainSet {
+    let mut grains = GrainSet {
         position: read_rows::<f64, 2>(&grains, "position", Some(n))?,
         origin: read_rows::<f64, 2>(&grains, "origin", Some(n))?,
         displacement: read_rows::<f64, 2>(&grains, "displacement", Some(n))?,
         rotation: read_vec::<f64>(&grains, "rotation", Some(n))?,
         radius: h.radius.clone(),
+        taken_out: vec![false; n],
     };
 
     let walls = g.group("walls")?;
@@ -261,6 +263,7 @@ pub(super) fn read_group_state(g: &Group, h: &RunHeader) -> R<State> {
         })
         .collect();
     let friends = g.group("friends")?;
+    let breakouts = read_breakouts(g, &mut grains, h.membranes.len(), nw)?;
     Ok(State {
         increment: get_count(g, "increment")?,
         stage: get_count(g, "stage")?,
@@ -278,6 +281,116 @@ pub(super) fn read_group_state(g: &Group, h: &RunHeader) -> R<State> {
         } else {
             Vec::new()
         },
+        breakouts,
         membranes,
     })
+}
+
+/// The breakouts so far, as group `breakouts`: their increments, grain counts and bonds
+/// broken, their grains one breakout after another, and the loads carried.
+fn write_breakouts(g: &Group, state: &State) -> R<()> {
+    let group = g.create_group("breakouts")?;
+    let list = &state.breakouts;
+    let column =
+        |f: fn(&Breakout) -> usize| -> Array1<i64> { list.iter().map(|b| f(b) as i64).collect() };
+    put(&group, "increment", column(|b| b.increment).view())?;
+    put(&group, "grain_count", column(|b| b.grains.len()).view())?;
+    put(&group, "bonds_broken", column(|b| b.bonds_broken).view())?;
+    let grains: Array1<i64> = (list.iter().flat_map(|b| &b.grains))
+        .map(|&i| i as i64)
+        .collect();
+    put(&group, "grains", grains.view())?;
+    let table = |width: usize, row: &dyn Fn(&Breakout) -> Vec<f64>| -> R<Array2<f64>> {
+        let values = list.iter().flat_map(row).collect();
+        Ok(Array2::from_shape_vec((list.len(), width), values)?)
+    };
+    let pressure = table(state.membranes.len(), &|b| b.pressure.clone())?;
+    put(&group, "membrane_pressure", pressure.view())?;
+    let stress = table(state.walls.len(), &|b| {
+        b.stress.iter().map(|s| s.unwrap_or(f64::NAN)).collect()
+    })?;
+    put(&group, "wall_stress", stress.view())
+}
+
+/// The breakouts of an increment group (none in files from before grains were taken out),
+/// their grains marked as taken out of `grains`; `membranes` and `walls` wide.
+fn read_breakouts(
+    g: &Group,
+    grains: &mut GrainSet,
+    membranes: usize,
+    walls: usize,
+) -> R<Vec<Breakout>> {
+    if !g.link_exists("breakouts") {
+        return Ok(Vec::new());
+    }
+    let group = g.group("breakouts")?;
+    let increment = read_vec::<i64>(&group, "increment", None)?;
+    let count = Some(increment.len());
+    let grain_count = read_vec::<i64>(&group, "grain_count", count)?;
+    let bonds_broken = read_vec::<i64>(&group, "bonds_broken", count)?;
+    let all = read_vec::<i64>(&group, "grains", None)?;
+    let pressure = read_table(&group, "membrane_pressure", increment.len(), membranes)?;
+    let stress = read_table(&group, "wall_stress", increment.len(), walls)?;
+    let natural = |name: &str, v: i64| {
+        usize::try_from(v).map_err(|_| Fail(format!("breakouts/{name} holds {v}")))
+    };
+    let mut rest = &all[..];
+    let mut breakouts = Vec::with_capacity(increment.len());
+    for k in 0..increment.len() {
+        let size = natural("grain_count", grain_count[k])?;
+        if size > rest.len() {
+            return Err(Fail(format!(
+                "breakouts/grains is shorter than breakouts/grain_count says ({} grains)",
+                all.len()
+            )));
+        }
+        let (mine, after) = rest.split_at(size);
+        rest = after;
+        let mut cluster = Vec::with_capacity(size);
+        for &i in mine {
+            let i = natural("grains", i)?;
+            match grains.taken_out.get_mut(i) {
+                Some(out) if !*out => *out = true,
+                Some(_) => return Err(Fail(format!("grain {i} is taken out twice"))),
+                None => return Err(Fail(format!("breakouts/grains names grain {i}"))),
+            }
+            cluster.push(i);
+        }
+        cluster.sort_unstable();
+        breakouts.push(Breakout {
+            increment: natural("increment", increment[k])?,
+            grains: cluster,
+            bonds_broken: natural("bonds_broken", bonds_broken[k])?,
+            pressure: pressure[k].clone(),
+            stress: stress[k]
+                .iter()
+                .map(|s| (!s.is_nan()).then_some(*s))
+                .collect(),
+        });
+    }
+    if !rest.is_empty() {
+        return Err(Fail(format!(
+            "breakouts/grains holds {} grains, breakouts/grain_count adds up to fewer",
+            all.len()
+        )));
+    }
+    Ok(breakouts)
+}
+
+/// A `rows` x `width` dataset of f64 as rows.
+fn read_table(g: &Group, name: &str, rows: usize, width: usize) -> R<Vec<Vec<f64>>> {
+    let ds = dataset(g, name)?;
+    let shape = ds.shape();
+    let raw = ds
+        .read_raw::<f64>()
+        .map_err(|e| Fail(format!("dataset `{}/{name}`: {e}", g.name())))?;
+    if shape != [rows, width] || raw.len() != rows * width {
+        return Err(Fail(format!(
+            "dataset `{}/{name}` has shape {shape:?}, expected ({rows}, {width})",
+            g.name()
+        )));
+    }
+    Ok((0..rows)
+        .map(|r| raw[r * width..(r + 1) * width].to_vec())
+        .collect())
 }

@@ -172,7 +172,7 @@ const HISTORY_INT: [&str; 13] = [
     "increment",
 ];
 
-const HISTORY_FLOAT: [&str; 14] = [
+const HISTORY_FLOAT: [&str; 15] = [
     "residual",
     "contacts_per_grain",
     "macro_stress_xx",
@@ -188,6 +188,8 @@ const HISTORY_FLOAT: [&str; 14] = [
     "energy_dissipated",
     "energy_bonds_released",
     "energy_imbalance",
+    // NaN in files from before grains were taken out.
+    "energy_taken_out",
 ];
 
 const HISTORY_WALL: [&str; 6] = [
@@ -369,7 +371,7 @@ pub(super) fn append_history(
         state.increment as i64,
     ];
     let e = &report.energy;
-    let floats: [f64; 14] = [
+    let floats: [f64; 15] = [
         report.residual,
         m.contacts_per_grain,
         m.macro_stress[0][0],
@@ -384,6 +386,7 @@ pub(super) fn append_history(
         e.dissipated,
         e.bonds_released,
         e.imbalance(),
+        e.taken_out,
     ];
     let column = |f: fn(&Wall) -> f64| -> Vec<f64> { state.walls.walls.iter().map(f).collect() };
     let wall_rows: [Vec<f64>; 6] = [
