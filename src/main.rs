@@ -33,14 +33,14 @@ enum Command {
     /// write the state to HDF5.
     #[command(
         after_help = "Examples:\n  grainstat run examples/crystal-biaxial.toml\n  \
-        grainstat run examples/sand-hertz.toml --solver solvers/newton-lu.toml -o sand.h5\n  \
+        grainstat run examples/sand-hertz.toml --solver solvers/relaxation.toml -o sand.h5\n  \
         grainstat run examples/crystal-biaxial.toml --resume results/crystal-biaxial.h5"
     )]
     Run {
         /// Scene file (TOML).
         scene: PathBuf,
-        /// Solver settings (TOML); default: the built-in Newton-Cholesky settings
-        /// (solvers/newton-cholesky.toml).
+        /// Solver settings (TOML); default: the built-in settings of the minimisation
+        /// (solvers/minimise.toml).
         #[arg(long)]
         solver: Option<PathBuf>,
         /// Result file; default: the scene's `output.file`, else results/NAME.h5.
@@ -119,12 +119,12 @@ enum Command {
         /// Directory for the tables and the plots; default: results/study-NAME.
         #[arg(short, long, value_name = "DIR")]
         output: Option<PathBuf>,
-        /// Settings of the reference run; default: solvers/study-reference.toml.
+        /// Settings of the reference run; default: solvers/reference.toml.
         #[arg(long, value_name = "SOLVER.toml")]
         reference: Option<PathBuf>,
-        /// Settings of the global solver's runs; default: solvers/newton-cholesky.toml.
-        #[arg(long, value_name = "SOLVER.toml")]
-        newton: Option<PathBuf>,
+        /// Settings of the global solver's runs; default: solvers/minimise.toml.
+        #[arg(long, value_name = "SOLVER.toml", alias = "newton")]
+        minimise: Option<PathBuf>,
         /// Settings of the relaxation runs; default: solvers/relaxation.toml.
         #[arg(long, value_name = "SOLVER.toml")]
         relaxation: Option<PathBuf>,
@@ -157,7 +157,7 @@ enum Command {
         #[arg(short, long, value_name = "DIR")]
         output: Option<PathBuf>,
         /// Solver settings (TOML) of every run; default: the sweep file's `solver`, else the
-        /// built-in Newton-Cholesky settings.
+        /// built-in settings of the minimisation.
         #[arg(long)]
         solver: Option<PathBuf>,
         /// Worker threads (results do not depend on it).
@@ -212,7 +212,7 @@ fn main() -> ExitCode {
             scene,
             output,
             reference,
-            newton,
+            minimise,
             relaxation,
             tolerances,
             sweeps,
@@ -224,7 +224,7 @@ fn main() -> ExitCode {
             study(
                 &scene,
                 output,
-                [reference, newton, relaxation],
+                [reference, minimise, relaxation],
                 tolerances,
                 sweeps,
                 relaxation_tolerances,
@@ -499,7 +499,7 @@ fn log_line(sim: &Simulation, r: &IncrementReport) -> String {
         .zip(&m.wall_stress)
         .map(|(w, s)| format!("{} {:.4e}", w.name, s))
         .collect();
-    // The last Newton residuals show the rate of convergence.
+    // The last residuals show the rate of convergence.
     let tail = &sim.last_residuals[sim.last_residuals.len().saturating_sub(5)..];
     let residuals: Vec<String> = tail.iter().map(|v| format!("{v:.1e}")).collect();
     format!(
@@ -551,7 +551,7 @@ fn summary(sim: &Simulation) -> String {
         c.increments,
         c.newton_iterations,
         match sim.config.strategy {
-            Strategy::Newton | Strategy::Minimise => "Newton iterations",
+            Strategy::Minimise => "Newton iterations",
             Strategy::Relaxation => "sweeps",
         },
         c.symbolic_factorisations,
@@ -626,7 +626,7 @@ fn run_sweep_command(
 fn study(
     scene_path: &Path,
     output: Option<PathBuf>,
-    [reference, newton, relaxation]: [Option<PathBuf>; 3],
+    [reference, minimise, relaxation]: [Option<PathBuf>; 3],
     tolerances: Vec<f64>,
     sweeps: Vec<usize>,
     relaxation_tolerances: Vec<f64>,
@@ -637,13 +637,13 @@ fn study(
     let plan = StudyPlan {
         reference: preset(
             reference.as_deref(),
-            include_str!("../solvers/study-reference.toml"),
-            "solvers/study-reference.toml",
+            include_str!("../solvers/reference.toml"),
+            "solvers/reference.toml",
         )?,
-        newton: preset(
-            newton.as_deref(),
-            include_str!("../solvers/newton-cholesky.toml"),
-            "solvers/newton-cholesky.toml",
+        global: preset(
+            minimise.as_deref(),
+            include_str!("../solvers/minimise.toml"),
+            "solvers/minimise.toml",
         )?,
         tolerances,
         relaxation: preset(

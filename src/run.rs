@@ -7,7 +7,7 @@ use crate::output::{ResultFile, RunHeader};
 use crate::scene::{build_grains, Scene};
 use crate::simulation::Simulation;
 use crate::solver::stats::secs;
-use crate::solver::{SolverConfig, Strategy};
+use crate::solver::SolverConfig;
 use crate::state::IncrementReport;
 use crate::{Error, NumericError};
 use std::path::Path;
@@ -175,13 +175,7 @@ pub fn run_to_end(
                 let stage = &sim.stages[sim.state.stage];
                 // The minimisation names the failure (grains carried on while the potential
                 // falls); where it only stops short of the tolerance, the solver gave up.
-                let no_equilibrium = match err {
-                    NumericError::NoEquilibrium { .. } => true,
-                    NumericError::NotConverged { .. } | NumericError::Singular { .. } => {
-                        sim.config.strategy != Strategy::Minimise
-                    }
-                    _ => false,
-                };
+                let no_equilibrium = matches!(err, NumericError::NoEquilibrium { .. });
                 if stage.until_failure && no_equilibrium {
                     let cause = FailureCause::NoEquilibrium(err);
                     let at = (sim.state.increment + 1, sim.state.stage);

@@ -1,7 +1,7 @@
-//! Speed against error: one scene run by the global solver over a range of tolerances and by
-//! the grain-by-grain relaxation over a range of sweeps per increment (`n_i`) and of
-//! tolerances, each run compared increment by increment with a reference (the global solver
-//! near machine precision): the wall stresses and the macro stress (eq. A.41) relative to
+//! Speed against error: one scene run by the global solver (the minimisation) over a range of
+//! tolerances and by the grain-by-grain relaxation over a range of sweeps per increment
+//! (`n_i`) and of tolerances, each run compared increment by increment with a reference (the
+//! global solver near machine precision): the wall stresses and the macro stress (eq. A.41) relative to
 //! the reference's, the grain positions in mean radii, and the run's own relative residual,
 //! against the CPU time the run took.
 
@@ -19,7 +19,7 @@ pub struct StudyPlan {
     /// Settings of the reference run.
     pub reference: SolverConfig,
     /// The global solver's settings, its tolerance set per run.
-    pub newton: SolverConfig,
+    pub global: SolverConfig,
     /// Tolerances of the global solver's runs.
     pub tolerances: Vec<f64>,
     /// The relaxation's settings, its sweeps and tolerance set per run.
@@ -35,7 +35,7 @@ pub struct StudyPlan {
 /// One run of a study.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Trial {
-    /// `newton` or `relaxation`.
+    /// `minimise` or `relaxation`.
     pub solver: String,
     /// What was varied, as shown in the table (`tolerance 1e-6`, `n_i = 20`).
     pub setting: String,
@@ -54,14 +54,13 @@ impl StudyPlan {
             setting,
             config,
         };
-        let newton = self.tolerances.iter().map(|&t| {
+        let global = self.tolerances.iter().map(|&t| {
             let config = SolverConfig {
-                strategy: Strategy::Newton,
+                strategy: Strategy::Minimise,
                 tolerance: t,
-                displacement_tolerance: t,
-                ..self.newton.clone()
+                ..self.global.clone()
             };
-            trial("newton", format!("tolerance {t:.0e}"), config)
+            trial("minimise", format!("tolerance {t:.0e}"), config)
         });
         let relaxation = |sweeps: usize, tolerance: f64| SolverConfig {
             strategy: Strategy::Relaxation,
@@ -80,7 +79,7 @@ impl StudyPlan {
             let config = relaxation(self.max_sweeps, t);
             trial("relaxation", format!("tolerance {t:.0e}"), config)
         });
-        newton.chain(fixed_sweeps).chain(to_tolerance).collect()
+        global.chain(fixed_sweeps).chain(to_tolerance).collect()
     }
 }
 
@@ -430,7 +429,7 @@ pub fn markdown(scene: &str, reference: &Track, rows: &[StudyRow]) -> String {
         let _ = write!(s, " {t:.0e} |");
     }
     s.push_str("\n|---|---|---|---|\n");
-    for solver in ["newton", "relaxation"] {
+    for solver in ["minimise", "relaxation"] {
         let _ = write!(s, "| {solver} |");
         for target in TARGETS {
             match fastest(rows, solver, target) {

@@ -186,7 +186,7 @@ fn a_failing_increment_names_itself_and_keeps_the_last_converged_state() {
     let solver = dir.path().join("starved.toml");
     std::fs::write(
         &solver,
-        "tolerance = 1e-12\ndisplacement_tolerance = 1e-12\nmax_iterations = 1\nmax_cuts = 0\n",
+        "tolerance = 1e-12\nmax_iterations = 1\nmax_cuts = 0\n",
     )
     .unwrap();
     let result = dir.path().join("failed.h5");

@@ -16,7 +16,6 @@ fn check_two_discs(law: &str, force_of: impl Fn(f64) -> f64) {
     let grains = build_grains(&scene.grains, Path::new("."), "two").unwrap();
     let config = SolverConfig {
         tolerance: 1e-13,
-        displacement_tolerance: 1e-13,
         ..SolverConfig::default()
     };
     let mut sim = Simulation::new(&scene, grains, config, "two").unwrap();

@@ -77,7 +77,6 @@ fn crystal_contact_forces_match_a123_and_a127() {
     let height = 2.0 * R + 3f64.sqrt() * R * (rows - 1) as f64;
     let config = SolverConfig {
         tolerance: 1e-9,
-        displacement_tolerance: 1e-9,
         ..SolverConfig::default()
     };
     let mut sim = Simulation::new(&scene, grains, config, "crystal").unwrap();

@@ -1,6 +1,6 @@
-//! The increment as one minimisation (`strategy = "minimise"`): it finds the equilibrium
-//! the Newton of topology passes finds, on the crystal and on a prepared Hertz sample, in a
-//! handful of iterations with one factorisation each.
+//! The increment as one minimisation (the global solver): it finds the equilibrium the
+//! grain-by-grain relaxation finds when that is run to a tight tolerance, on the crystal and
+//! on a prepared Hertz sample, in a handful of iterations with one factorisation each.
 
 mod common;
 
@@ -11,14 +11,10 @@ use grainstat::simulation::Simulation;
 use grainstat::solver::{SolverConfig, Strategy};
 use std::path::Path;
 
-/// Each increment's Newton iterations, and the final grain positions and wall stresses.
-fn run_crystal(strategy: Strategy) -> (Vec<usize>, Vec<[f64; 2]>, Vec<f64>) {
+/// Each increment's iterations (or sweeps), and the final grain positions and wall stresses.
+fn run_crystal(config: SolverConfig) -> (Vec<usize>, Vec<[f64; 2]>, Vec<f64>) {
     let scene = grainstat::samples::crystal_biaxial(9, 8, 1e6, 3e6);
     let grains = build_grains(&scene.grains, Path::new("."), "crystal").unwrap();
-    let config = SolverConfig {
-        strategy,
-        ..SolverConfig::default()
-    };
     let mut sim = Simulation::new(&scene, grains, config, "crystal").unwrap();
     let mut iterations = Vec::new();
     while !sim.is_finished() {
@@ -28,33 +24,40 @@ fn run_crystal(strategy: Strategy) -> (Vec<usize>, Vec<[f64; 2]>, Vec<f64>) {
     (iterations, sim.state.grains.position.clone(), stress)
 }
 
+/// The relaxation swept until its residual is at `tolerance`: an answer found without the
+/// minimisation.
+fn relaxed(tolerance: f64) -> SolverConfig {
+    SolverConfig {
+        strategy: Strategy::Relaxation,
+        sweeps: 1_000_000,
+        tolerance,
+        ..SolverConfig::default()
+    }
+}
+
 /// The cemented crystal is linear while no bond breaks: its potential is quadratic but for
 /// the walls' follower loads (a side wall's load follows the length the top and bottom give
 /// it), and the minimisation takes a step or two per increment, with the answer of the
-/// Newton of topology passes.
+/// relaxation run to 1e-10 (2 s; to 1e-12, near its round-off floor, it takes minutes).
 #[test]
-fn the_crystal_takes_a_step_or_two_per_increment_with_newtons_answer() {
-    let (newton_its, newton_at, newton_stress) = run_crystal(Strategy::Newton);
-    let (its, at, stress) = run_crystal(Strategy::Minimise);
-    assert_eq!(its.len(), newton_its.len());
+fn the_crystal_takes_a_step_or_two_per_increment_with_the_relaxations_answer() {
+    let (relaxed_sweeps, relaxed_at, relaxed_stress) = run_crystal(relaxed(1e-10));
+    let (its, at, stress) = run_crystal(SolverConfig::default());
+    assert_eq!(its.len(), relaxed_sweeps.len());
     let mut sorted = its.clone();
     sorted.sort_unstable();
     assert!(
         sorted[sorted.len() / 2] <= 2,
         "iterations per increment {its:?}"
     );
-    assert!(
-        its.iter().sum::<usize>() < newton_its.iter().sum::<usize>(),
-        "iterations per increment {its:?}, Newton's {newton_its:?}"
-    );
     let r = 1e-4;
     let moved = at
         .iter()
-        .zip(&newton_at)
+        .zip(&relaxed_at)
         .map(|(a, b)| (a[0] - b[0]).hypot(a[1] - b[1]) / r)
         .fold(0.0, f64::max);
     assert!(moved < 1e-8, "grains apart by {moved:e} radii");
-    for (a, b) in stress.iter().zip(&newton_stress) {
+    for (a, b) in stress.iter().zip(&relaxed_stress) {
         assert!(
             (a - b).abs() <= 1e-7 * b.abs(),
             "wall stress {a:e} against {b:e}"
@@ -64,12 +67,15 @@ fn the_crystal_takes_a_step_or_two_per_increment_with_newtons_answer() {
 
 /// A dense Hertz sample (sand, table 1) prepared to 1 bar and pushed down in the thesis's
 /// load steps of 4e-5 strain, the sides at 1 bar: the minimisation converges in every
-/// increment, in fewer iterations than the Newton of topology passes, and the two agree on
-/// the stresses to within what the tolerance and the shear made before a contact touched
-/// (counted from the exact touching point by Newton, estimated on the straight way by the
-/// minimisation) allow.
+/// increment in a handful of iterations (a median of 8 measured), and agrees with the
+/// relaxation run to 1e-10 on the stresses to within what the tolerance and the shear made
+/// before a contact touched (counted by the relaxation from where a sweep finds it touching,
+/// estimated on the straight way by the minimisation) allow. The relaxation's steps are
+/// truncated at 1e-3 radii, so it finds a contact near where its surfaces touch: at its
+/// default 0.05 a contact found deep in a long step drifts its stresses 1e-4 away by the
+/// 14th increment.
 #[test]
-fn a_hertz_biaxial_converges_in_a_handful_of_iterations_with_newtons_answer() {
+fn a_hertz_biaxial_converges_in_a_handful_of_iterations_with_the_relaxations_answer() {
     let dir = tempfile::tempdir().unwrap();
     let sample = dir.path().join("sand.h5");
     let sample_scene = dir.path().join("sample.toml");
@@ -92,7 +98,13 @@ fn a_hertz_biaxial_converges_in_a_handful_of_iterations_with_newtons_answer() {
         .replace("increments = 50", "increments = 15")
         .replace("top = 2.125e-5", "top = 3.5e-6");
     std::fs::write(&scene, text).unwrap();
-    let run = |solver: Option<&str>, name: &str| {
+    let relaxation = dir.path().join("relaxation.toml");
+    std::fs::write(
+        &relaxation,
+        "strategy = \"relaxation\"\nsweeps = 1000000\ntolerance = 1e-10\ntruncate = 1e-3\n",
+    )
+    .unwrap();
+    let run = |solver: Option<&Path>, name: &str| {
         let result = dir.path().join(name);
         let mut args = vec![
             "run",
@@ -103,24 +115,24 @@ fn a_hertz_biaxial_converges_in_a_handful_of_iterations_with_newtons_answer() {
             "--no-plot",
         ];
         if let Some(s) = solver {
-            args.extend(["--solver", s]);
+            args.extend(["--solver", s.to_str().unwrap()]);
         }
         let out = grainstat(&args);
         assert!(out.status.success(), "{name}: {}", stderr(&out));
         read_history(&result).unwrap()
     };
-    let newton = run(None, "newton.h5");
-    let minimised = run(Some("solvers/minimise.toml"), "minimise.h5");
+    let minimised = run(None, "minimise.h5");
+    let reference = run(Some(&relaxation), "relaxation.h5");
     let iterations = minimised.int("newton_iterations")[1..].to_vec();
-    let newton_iterations = newton.int("newton_iterations")[1..].to_vec();
-    let total = |v: &[i64]| v.iter().sum::<i64>();
     assert_eq!(iterations.len(), 15);
+    let mut sorted = iterations.clone();
+    sorted.sort_unstable();
     assert!(
-        total(&iterations) < total(&newton_iterations),
-        "minimisation {iterations:?}, Newton {newton_iterations:?}"
+        sorted[sorted.len() / 2] <= 12,
+        "iterations per increment {iterations:?}"
     );
     for name in ["macro_stress_xx", "macro_stress_yy"] {
-        let (a, b) = (minimised.float(name), newton.float(name));
+        let (a, b) = (minimised.float(name), reference.float(name));
         for (k, (x, y)) in a.iter().zip(b).enumerate() {
             assert!(
                 (x - y).abs() <= 1e-4 * y.abs(),
@@ -135,34 +147,9 @@ fn a_hertz_biaxial_converges_in_a_handful_of_iterations_with_newtons_answer() {
 /// as no equilibrium near, not as a solver that gave up.
 #[test]
 fn a_disc_with_nothing_beneath_is_no_equilibrium_near() {
-    let text = r#"
-name = "falling-disc"
-[material]
-law = "linear"
-normal_stiffness = 1e6
-poisson = 0.16
-friction = 0.5
-[grains]
-x = [1e-4]
-y = [1e-4]
-r = [1e-4]
-[[walls]]
-name = "top"
-point = [0.0, 2e-4]
-normal = [0.0, -1.0]
-control = "stress"
-length = 2e-4
-[[stages]]
-increments = 1
-stress = { top = 1e5 }
-"#;
-    let scene = grainstat::scene::parse_scene(text, "falling-disc").unwrap();
+    let scene = grainstat::scene::parse_scene(common::FALLING_DISC, "falling-disc").unwrap();
     let grains = build_grains(&scene.grains, Path::new("."), "falling-disc").unwrap();
-    let config = SolverConfig {
-        strategy: Strategy::Minimise,
-        ..SolverConfig::default()
-    };
-    let mut sim = Simulation::new(&scene, grains, config, "falling-disc").unwrap();
+    let mut sim = Simulation::new(&scene, grains, SolverConfig::default(), "falling-disc").unwrap();
     match sim.run_increment() {
         Err(grainstat::NumericError::NoEquilibrium { grains, .. }) => assert_eq!(grains, [0]),
         other => panic!("expected no equilibrium near, got {other:?}"),

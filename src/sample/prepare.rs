@@ -1,16 +1,16 @@
 //! Sample preparation as in the thesis (2.2, 3.2.1): radii drawn from a size distribution,
 //! grains sprinkled into the region at a fraction of their size and grown until they fill it
 //! at the target isotropic stress with the grain friction lowered to `f_gg'`; the friction is
-//! then raised to the test value `f_gg''`, the global solver brings the packing to exact
-//! equilibrium with it, and, for a cemented material, every grain-grain contact is bonded.
+//! then raised to the test value `f_gg''`, the global solver (the minimisation) brings the
+//! packing to exact equilibrium with it, and, for a cemented material, every grain-grain
+//! contact is bonded.
 
 use super::grow::{grow, GrowReport, GrowSettings};
 use super::{sprinkle, ContactHistory, Region, SampleFile, SizeDistribution};
-use crate::contact::SlipTangent;
 use crate::geometry::{Circle, GrainSet, Side, Wall, WallControl, WallSet};
 use crate::measure::Measurements;
 use crate::simulation::{initial_contacts, MaterialModel, Simulation, StageProgram};
-use crate::solver::{LinearKind, SolverConfig, Strategy};
+use crate::solver::{SolverConfig, Strategy};
 use crate::state::State;
 use crate::{Error, InputError};
 
@@ -235,17 +235,11 @@ pub fn prepare(
         failure_drop: None,
     };
     let state = State::fresh(grains, walls, contacts, Vec::new());
-    // The consistent tangent: near rest many contacts sit on the Coulomb limit, where the
-    // elasto-plastic one converges only linearly; this solve is made once per sample. The
-    // load is held, so halving the step would not help. Gaps left by growth close one
-    // topology pass at a time, and there are more of them the larger the sample.
+    // The global solver, whatever strategy the settings name: 20 sweeps would leave it
+    // unbalanced. The load is held, so halving the step would not help.
     let exact = SolverConfig {
-        // Newton, whatever strategy the settings name: 20 sweeps would leave it unbalanced.
-        strategy: Strategy::Newton,
-        linear: LinearKind::Lu,
-        slip_tangent: SlipTangent::Consistent,
+        strategy: Strategy::Minimise,
         max_cuts: 0,
-        max_topology_passes: config.max_topology_passes.max(spec.grains.div_ceil(50)),
         ..config.clone()
     };
     let mut sim = Simulation::from_state(

@@ -5,12 +5,10 @@ use super::LoadStep;
 use crate::assembly::{contact_block, frame_turn_force, BlockTangent, DofMap, PairMap, Pattern};
 use crate::contact::{kinematics, Configuration, Contact, ContactLaw, Kinematics, SlipTangent};
 use crate::geometry::{
-    chains, rotate, Chain, FriendSet, GrainSet, Membrane, MembraneShape, Pair, Side, WallSet,
+    rotate, Chain, FriendSet, GrainSet, Membrane, MembraneShape, Pair, Side, WallSet,
 };
 use crate::parallel;
-use crate::simulation::MaterialModel;
 use crate::solver::stats::{secs, StageTimers};
-use crate::solver::Equations;
 use crate::NumericError;
 use std::time::Instant;
 
@@ -163,21 +161,17 @@ pub struct IncrementEquations<'a> {
     pub grains: &'a GrainSet,
     /// Committed walls.
     pub walls: &'a WallSet,
-    /// Contacts: history read, trial response written; gaps that close within a pass
-    /// join them.
+    /// Contacts: history read, trial response written.
     pub contacts: &'a mut Vec<Contact>,
     /// Friend-pair index of each contact (its block in the pattern), increasing.
     pub pair_index: &'a mut Vec<usize>,
-    /// The material, for the contacts made.
-    pub material: &'a MaterialModel,
-    /// The friends lists: pairs not in contact are watched for gaps closing within a step, and
-    /// no step takes a grain so far that a pair outside them could touch.
+    /// The friends lists: no step takes a grain so far that a pair outside them could touch.
     pub friends: &'a FriendSet,
     /// The wall program of this step.
     pub step: &'a LoadStep,
     /// Membranes (their pressures come from the step).
     pub membranes: &'a [Membrane],
-    /// Each membrane's chain: found anew where a step closed a gap, as the grains roll.
+    /// Each membrane's chain: found anew at a refreeze, as the grains roll.
     pub chains: &'a mut Vec<Chain>,
     /// Whether the chains stay as they are for the rest of the increment: a grain on the
     /// membrane probe's line can flip them from pass to pass.
@@ -186,14 +180,11 @@ pub struct IncrementEquations<'a> {
     pub carriers: &'a [bool],
     /// Springs on the rigid-body motions no wall holds.
     pub anchors: &'a [Anchor],
-    /// Pairs whose contact opened in tension earlier in this increment, sorted. Made again,
-    /// such a contact carries nothing while apart, but keeps its stiffness in the tangent: an
-    /// equilibrium that needs it to pull then has it just touching, where a contact that
-    /// pulled would open and close again from pass to pass.
+    /// Relaxation: pairs whose contact opened in tension earlier in this increment, sorted.
+    /// Made again, such a contact carries nothing while apart, but keeps its stiffness in the
+    /// tangent: an equilibrium that needs it to pull then has it just touching, where a
+    /// contact that pulled would open and close again from pass to pass.
     pub reopened: &'a [Pair],
-    /// While settling, every contact that is not bonded pushes but does not pull: a grain
-    /// that lost its support must be free to go.
-    pub unilateral: bool,
     /// Unknowns.
     pub dofs: &'a DofMap,
     /// Pattern and slot maps.
@@ -218,7 +209,7 @@ pub struct IncrementEquations<'a> {
     pub f_ref: f64,
     /// Contact stiffness to regularise with when the tangent has none.
     pub stiffness_hint: f64,
-    /// Whether Newton is far from the answer (soft tangents get a floor).
+    /// Relaxation: whether the sweeps are far from the answer (soft tangents get a floor).
     pub far: bool,
     /// Wall load per grain touching a loaded wall (N): the force scale before contacts carry.
     pub load_scale: f64,
@@ -395,10 +386,7 @@ impl IncrementEquations<'_> {
             c.shear_increment,
             self.slip_tangent,
         );
-        if c.overlap < 0.0
-            && !c.bonded
-            && (self.unilateral || self.reopened.binary_search(&c.pair).is_ok())
-        {
+        if c.overlap < 0.0 && !c.bonded && self.reopened.binary_search(&c.pair).is_ok() {
             (c.response.normal_force, c.response.shear_force) = (0.0, 0.0);
         }
         let scale = self.f_ref.max(self.load_scale);
@@ -720,114 +708,15 @@ fn finite(c: &Contact) -> Result<(), NumericError> {
 /// Overlap, in mean radii, within which a contact keeps its state (made or lost).
 pub const CHATTER: f64 = 1e-12;
 
-/// Overlap, in mean radii, at which a step that closes a gap stops: above the chatter band,
-/// so the contact is made, and small enough that its shear displacement counts from where
-/// the surfaces touched, whatever path Newton took there (deeper stops made the answer
-/// depend on the path: 6.5e-7 of the macro stress in one increment of the sand study).
+/// Overlap, in mean radii, at which a semi-smooth step that closes a gap stops: small, so
+/// the contact enters the next step's tangent about where its surfaces touched.
 pub(super) const CLOSING_OVERLAP: f64 = 1e-6;
 
 /// Share of the half skin a grain may move from where the friends lists were made before a
 /// step stops for them to be made anew.
 pub(super) const REACH: f64 = 0.9;
 
-/// What the grain-by-grain strategy asks of the equations besides their residual.
 impl IncrementEquations<'_> {
-    /// After a step that stopped where a gap closed: make a contact of every pair that is
-    /// apart in the contact set but overlaps at `u`, and let the boundaries follow. Returns how
-    /// many contacts were made, or `None` when the topology must be rebuilt before going on
-    /// (nothing then changed).
-    pub fn close_gaps(&mut self, u: &[f64]) -> Option<usize> {
-        let chatter = CHATTER * self.r_mean;
-        self.configure(u);
-        // The membranes follow the grains, as far as the pattern couples their new chains.
-        if !self.membranes.is_empty() && !self.chains_held {
-            let chains = chains(
-                self.membranes,
-                &self.q.position,
-                &self.grains.radius,
-                self.carriers,
-                &self.grains.taken_out,
-            );
-            if !self.pattern.couples(self.dofs, &chains) {
-                return None;
-            }
-            *self.chains = chains;
-        }
-        let mut made = Vec::new();
-        let mut contact = self.pair_index.iter().peekable();
-        for (k, &pair) in self.friends.pairs.iter().enumerate() {
-            if contact.next_if(|&&c| c == k).is_some() {
-                continue;
-            }
-            let kin = kinematics(pair, self.grains, self.walls, self.q);
-            if kin.overlap > chatter {
-                let params = self.material.params(pair, self.grains, self.walls);
-                let mut c = Contact::new(pair, params, false);
-                c.shear_offset = kin.shear_increment;
-                made.push((k, c));
-            }
-        }
-        let count = made.len();
-        for (k, c) in made {
-            let at = self.pair_index.partition_point(|&p| p < k);
-            self.pair_index.insert(at, k);
-            self.contacts.insert(at, c);
-        }
-        Some(count)
-    }
-
-    /// The fraction of the step `du` from `u` after which the first pair of surfaces that is
-    /// apart now has closed to a small overlap, or a grain reaches the edge of the friends
-    /// lists (1 when neither happens within the step).
-    pub fn closing_fraction(&mut self, u: &[f64], du: &[f64]) -> f64 {
-        // Overlaps of the pairs not in contact at the start and at the end of the step;
-        // within it the overlap of two grains lies above the straight line between the two
-        // (distance is convex), so stopping where that line reaches the closing overlap leaves
-        // at least that overlap, and the contact is made.
-        let closing = CLOSING_OVERLAP * self.r_mean;
-        self.configure(u);
-        // No further than most of the way to where the lists go stale, by the triangle
-        // inequality on each grain's move.
-        let reach = REACH * 0.5 * self.friends.skin;
-        let mut fraction = 1.0f64;
-        let per = self.dofs.per_grain;
-        for (i, p) in self.q.position.iter().enumerate() {
-            let q = self.friends.reference[i];
-            let moved = (p[0] - q[0]).hypot(p[1] - q[1]);
-            let step = du[i * per].hypot(du[i * per + 1]);
-            if moved + step > reach {
-                fraction = fraction.min(((reach - moved) / step).max(0.0));
-            }
-        }
-        let mut contact = self.pair_index.iter().peekable();
-        let apart: Vec<(Pair, f64)> = self
-            .friends
-            .pairs
-            .iter()
-            .enumerate()
-            .filter(|&(k, _)| contact.next_if(|&&c| c == k).is_none())
-            .map(|(_, &pair)| {
-                (
-                    pair,
-                    kinematics(pair, self.grains, self.walls, self.q).overlap,
-                )
-            })
-            .filter(|&(_, overlap)| overlap < closing)
-            .collect();
-        if apart.is_empty() {
-            return fraction;
-        }
-        let end: Vec<f64> = u.iter().zip(du).map(|(a, b)| a + b).collect();
-        self.configure(&end);
-        for (pair, overlap0) in apart {
-            let overlap1 = kinematics(pair, self.grains, self.walls, self.q).overlap;
-            if overlap1 > closing {
-                fraction = fraction.min((closing - overlap0) / (overlap1 - overlap0));
-            }
-        }
-        fraction
-    }
-
     /// Convergence measure of a residual: `(|R|_inf / F_ref, worst grain, |R|_2 / F_ref)`,
     /// moments divided by the mean radius.
     pub fn residual_norm(&self, residual: &[f64]) -> (f64, usize, f64) {
@@ -854,56 +743,5 @@ impl IncrementEquations<'_> {
             Some(_) if self.dofs.per_grain == 3 && dof % 3 == 2 => self.r_mean * self.r_mean,
             _ => 1.0,
         }
-    }
-
-    /// Size of a step in mean radii (rotations times the mean radius).
-    pub fn step_norm(&self, du: &[f64]) -> f64 {
-        let per = self.dofs.per_grain;
-        du.iter()
-            .enumerate()
-            .map(|(k, d)| match self.dofs.owner(k) {
-                Some(_) if per == 3 && k % 3 == 2 => d.abs(),
-                _ => d.abs() / self.r_mean,
-            })
-            .fold(0.0, f64::max)
-    }
-}
-
-impl Equations for IncrementEquations<'_> {
-    fn evaluate(
-        &mut self,
-        u: &[f64],
-        residual: &mut [f64],
-        tangent: Option<&mut [f64]>,
-    ) -> Result<(), NumericError> {
-        self.evaluate_at(u, residual, tangent)
-    }
-
-    fn residual_norm(&self, residual: &[f64]) -> (f64, usize, f64) {
-        IncrementEquations::residual_norm(self, residual)
-    }
-
-    fn step_norm(&self, du: &[f64]) -> f64 {
-        IncrementEquations::step_norm(self, du)
-    }
-
-    fn unit_stiffness(&self, dof: usize) -> f64 {
-        IncrementEquations::unit_stiffness(self, dof)
-    }
-
-    fn stiffness_hint(&self) -> f64 {
-        self.stiffness_hint
-    }
-
-    fn set_far(&mut self, far: bool) {
-        self.far = far;
-    }
-
-    fn closing_fraction(&mut self, u: &[f64], du: &[f64]) -> f64 {
-        IncrementEquations::closing_fraction(self, u, du)
-    }
-
-    fn close_gaps(&mut self, u: &[f64]) -> Option<usize> {
-        IncrementEquations::close_gaps(self, u)
     }
 }

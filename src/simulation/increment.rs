@@ -201,7 +201,11 @@ impl Simulation {
     /// it is nearer equilibrium than the committed state, else the committed state. The last
     /// increment's displacements extrapolate its smooth part well, but a grain that snapped
     /// through in it would be thrown on by as much again, into its neighbours.
-    fn start_point(&mut self, step: &LoadStep, share: f64) -> Result<Vec<f64>, NumericError> {
+    pub(super) fn start_point(
+        &mut self,
+        step: &LoadStep,
+        share: f64,
+    ) -> Result<Vec<f64>, NumericError> {
         let mut start = self.predictor(share);
         let at_rest = vec![0.0; start.len()];
         if start != at_rest {

@@ -2,18 +2,17 @@
 //! solver: one block per grain (its 3x3 system of eq. 19, or 2x2 with fixed rotations) and
 //! one per stress-controlled wall, built from the same contact laws and local contact blocks,
 //! swept in index order by [`crate::solver::relaxation::relax`]. Contacts are made and lost
-//! between passes by the same topology update as for Newton.
+//! between passes by a topology update of its own.
 
 use super::equations::{IncrementEquations, CHATTER};
-use super::newton_step::TopologyChange;
 use super::{LoadStep, Simulation, REACH_REBUILD};
 use crate::assembly::contact_block;
-use crate::contact::kinematics;
+use crate::contact::{kinematics, BrokenBond, Contact};
 use crate::geometry::{Pair, Side};
-use crate::solver::newton::NewtonOutcome;
-use crate::solver::relaxation::{self, BlockEquations, BlockSystem, RelaxationSettings, Slip};
+use crate::solver::relaxation::{
+    self, BlockEquations, BlockSystem, RelaxationOutcome, RelaxationSettings, Slip,
+};
 use crate::solver::stats::secs;
-use crate::solver::Equations;
 use crate::state::IncrementReport;
 use crate::NumericError;
 use std::time::Instant;
@@ -22,14 +21,73 @@ use std::time::Instant;
 /// [`REACH_REBUILD`], so the topology update then makes the lists anew.
 const REACH: f64 = 0.9;
 
+/// What one topology pass changed.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+struct TopologyChange {
+    made: usize,
+    lost: usize,
+    broken: usize,
+    /// Membranes whose chain of grains changed.
+    chains: usize,
+}
+
+impl TopologyChange {
+    fn any(&self) -> bool {
+        self.made + self.lost + self.broken + self.chains > 0
+    }
+}
+
 impl Simulation {
+    /// Solve a step by relaxation and commit it. Where that fails (a residual that is not
+    /// finite), the history is restored and the step solved as two halves, down to
+    /// `max_cuts` halvings.
+    pub(super) fn relax_increment(
+        &mut self,
+        step: &LoadStep,
+        depth: u32,
+        report: &mut IncrementReport,
+    ) -> Result<(), NumericError> {
+        let backup = self.state.contacts.clone();
+        let energy = self.energy;
+        self.start_step();
+        // Grain by grain, each block is solved with its neighbours held, so nothing need
+        // hold the sample as a whole; an anchor would carry the load the sweeps have not
+        // yet passed through the sample, out of sight of the residual.
+        self.anchors.clear();
+        match self.relax_step(step, report) {
+            Ok((u, change)) => {
+                report.negative_pivots = self.negative_pivots(step, &u);
+                report.contacts_made += change.made;
+                report.contacts_lost += change.lost;
+                report.bonds_broken += change.broken;
+                self.commit(step, &u);
+                Ok(())
+            }
+            Err(err) => {
+                self.state.contacts = backup;
+                self.energy = energy;
+                self.restore_friends()?;
+                if depth >= self.config.max_cuts {
+                    return Err(err);
+                }
+                report.cuts += 1;
+                self.stats.counters.cuts += 1;
+                let stress: Vec<f64> = self.state.walls.walls.iter().map(|w| w.stress).collect();
+                let pressure: Vec<f64> = self.state.membranes.iter().map(|m| m.pressure).collect();
+                let (first, second) = step.halves(&stress, &pressure);
+                self.relax_increment(&first, depth + 1, report)?;
+                self.relax_increment(&second, depth + 1, report)
+            }
+        }
+    }
+
     /// One increment by relaxation: passes of sweeps until the residual meets the tolerance
     /// or the increment's `sweeps` (`n_i`) are spent. A pass stops where a gap closes (or a
     /// grain nears the edge of its friends lists), and the contact is made before the next;
     /// contacts are lost and bonds broken at the end, and if that changes the forces while
     /// sweeps are left, the sweeps go on. Then the increment is taken as it stands, as in the
     /// thesis: its residual is reported, never a failure.
-    pub(super) fn relax_step(
+    fn relax_step(
         &mut self,
         step: &LoadStep,
         report: &mut IncrementReport,
@@ -65,11 +123,131 @@ impl Simulation {
         }
     }
 
+    /// After the sweeps stopped (`settled`): break overloaded bonds and drop contacts that
+    /// opened (before then, what opens may close again). After any pass: rebuild the friends
+    /// lists if something moved too far, and make the contacts that closed.
+    fn update_topology(
+        &mut self,
+        step: &LoadStep,
+        u: &[f64],
+        settled: bool,
+    ) -> Result<TopologyChange, NumericError> {
+        // Responses where the sweeps left the grains.
+        let mut eq = self.equations(step);
+        eq.configure(u);
+        eq.update_contacts()?;
+        self.stats.timers.return_map += eq.timers.return_map;
+        let start = Instant::now();
+        let mut change = TopologyChange::default();
+        let increment = self.state.increment + 1;
+        // Contacts are lost below -chatter and made above +chatter: at rest, overlaps at the
+        // round-off level would otherwise flip contacts on and off from pass to pass. A
+        // linear contact kept in between carries at most k * chatter, a Hertz one nothing.
+        let chatter = CHATTER * self.r_mean;
+        let set = &mut self.state.contacts;
+        for c in set.contacts.iter_mut().filter(|_| settled) {
+            if let Some(mode) = c.bond_failure() {
+                self.energy.bonds_released += super::energy::bond_energy(self.law.as_ref(), c);
+                c.bonded = false;
+                c.broken = true;
+                set.broken_bonds.push(BrokenBond {
+                    pair: c.pair,
+                    increment,
+                    mode,
+                });
+                change.broken += 1;
+            }
+        }
+        let before = set.contacts.len();
+        let reopened = &mut self.reopened;
+        set.contacts.retain(|c| {
+            let kept = !settled || c.bonded || c.overlap >= -chatter;
+            if !kept {
+                if let Err(at) = reopened.binary_search(&c.pair) {
+                    reopened.insert(at, c.pair);
+                }
+            }
+            kept
+        });
+        change.lost = before - set.contacts.len();
+
+        // Friends lists: rebuilt around the current positions once anything moved half the skin.
+        let wall_position: Vec<f64> = (0..self.state.walls.len())
+            .map(|w| {
+                self.state.walls.walls[w].position
+                    + match self.dofs.wall[w] {
+                        Some(dof) => u[dof],
+                        None => step.normal_move[w],
+                    }
+            })
+            .collect();
+        self.stats.timers.topology += secs(start);
+        // After a step that stopped short of the lists' reach, or anything further.
+        let reach = 0.5 * self.friends.skin * REACH_REBUILD;
+        let wall_turn: Vec<f64> = (self.state.walls.walls.iter().zip(&step.turn))
+            .map(|(w, t)| w.turn + t)
+            .collect();
+        if self
+            .friends
+            .drift(&self.q.position, &wall_position, &wall_turn)
+            > reach
+        {
+            // Copies of grains and walls where they are now, made only for a rebuild.
+            let mut current = self.state.grains.clone();
+            current.position.clone_from(&self.q.position);
+            let mut walls_now = self.state.walls.clone();
+            for (w, wall) in walls_now.walls.iter_mut().enumerate() {
+                wall.position = wall_position[w];
+                wall.slide += step.slide[w];
+                wall.turn = wall_turn[w];
+            }
+            self.rebuild_friends(&current, &walls_now)?;
+        }
+        let start = Instant::now();
+
+        // Contacts made: friend pairs that now overlap.
+        let mut merged = Vec::with_capacity(self.state.contacts.contacts.len());
+        let mut existing = std::mem::take(&mut self.state.contacts.contacts)
+            .into_iter()
+            .peekable();
+        for &pair in &self.friends.pairs {
+            if existing.peek().is_some_and(|c| c.pair == pair) {
+                merged.push(existing.next().expect("peeked"));
+                continue;
+            }
+            let k = kinematics(pair, &self.state.grains, &self.state.walls, &self.q);
+            if k.overlap > chatter {
+                let params = self
+                    .material
+                    .params(pair, &self.state.grains, &self.state.walls);
+                let mut c = Contact::new(pair, params, false);
+                c.shear_offset = k.shear_increment;
+                merged.push(c);
+                change.made += 1;
+            }
+        }
+        // Contacts outside the lists cannot happen (they are rebuilt before anything moves far
+        // enough), but a bond stretched past the skin would be one: keep it all the same.
+        merged.extend(existing);
+        merged.sort_by_key(|c| c.pair);
+        self.state.contacts.contacts = merged;
+        self.index_pairs()?;
+        // Membranes: on the grains that are outermost now.
+        if !self.chains_held {
+            change.chains = self.refresh_chains(true)?;
+        }
+        self.stats.counters.contacts_made += change.made;
+        self.stats.counters.contacts_lost += change.lost;
+        self.stats.counters.bonds_broken += change.broken;
+        self.stats.timers.topology += secs(start);
+        Ok(change)
+    }
+
     /// Relative residual of the increment's equations at `u`.
     fn residual_at(&mut self, step: &LoadStep, u: &[f64]) -> Result<f64, NumericError> {
         let mut residual = vec![0.0; u.len()];
         let mut eq = self.equations(step);
-        eq.evaluate(u, &mut residual, None)?;
+        eq.evaluate_at(u, &mut residual, None)?;
         Ok(eq.residual_norm(&residual).0)
     }
 
@@ -79,7 +257,7 @@ impl Simulation {
         step: &LoadStep,
         u: &mut [f64],
         sweeps: usize,
-    ) -> Result<NewtonOutcome, NumericError> {
+    ) -> Result<RelaxationOutcome, NumericError> {
         let settings = RelaxationSettings {
             tolerance: self.config.tolerance,
             sweeps,
@@ -174,39 +352,23 @@ impl<'a> GrainByGrain<'a> {
     }
 }
 
-impl Equations for GrainByGrain<'_> {
-    fn evaluate(
-        &mut self,
-        u: &[f64],
-        residual: &mut [f64],
-        tangent: Option<&mut [f64]>,
-    ) -> Result<(), NumericError> {
-        self.eq.evaluate(u, residual, tangent)
+impl BlockEquations for GrainByGrain<'_> {
+    fn evaluate(&mut self, u: &[f64], residual: &mut [f64]) -> Result<(), NumericError> {
+        self.eq.evaluate_at(u, residual, None)
     }
+
     fn residual_norm(&self, residual: &[f64]) -> (f64, usize, f64) {
         self.eq.residual_norm(residual)
     }
-    fn step_norm(&self, du: &[f64]) -> f64 {
-        self.eq.step_norm(du)
-    }
+
     fn unit_stiffness(&self, dof: usize) -> f64 {
         self.eq.unit_stiffness(dof)
     }
-    fn stiffness_hint(&self) -> f64 {
-        self.eq.stiffness_hint()
-    }
-    fn set_far(&mut self, far: bool) {
-        self.eq.set_far(far)
-    }
-    fn closing_fraction(&mut self, u: &[f64], du: &[f64]) -> f64 {
-        self.eq.closing_fraction(u, du)
-    }
-    fn close_gaps(&mut self, u: &[f64]) -> Option<usize> {
-        self.eq.close_gaps(u)
-    }
-}
 
-impl BlockEquations for GrainByGrain<'_> {
+    fn set_far(&mut self, far: bool) {
+        self.eq.far = far;
+    }
+
     fn blocks(&self) -> usize {
         self.contacts_of.len()
     }

@@ -5,7 +5,7 @@ use super::{LoadStep, Simulation};
 use crate::assembly::{DofMap, Pattern};
 use crate::contact::SlipTangent;
 use crate::geometry::{Chain, WallControl};
-use crate::solver::{Equations, LinearKind, LinearSolver};
+use crate::solver::{LinearKind, LinearSolver};
 use faer::sparse::SparseColMatRef;
 use std::sync::Arc;
 
@@ -124,7 +124,7 @@ impl Simulation {
         eq.slip_tangent = SlipTangent::ElastoPlastic;
         eq.symmetric = true;
         eq.projected = false;
-        let evaluated = eq.evaluate(u, &mut residual, Some(&mut values));
+        let evaluated = eq.evaluate_at(u, &mut residual, Some(&mut values));
         let unit: Vec<f64> = (0..dofs.len).map(|dof| eq.unit_stiffness(dof)).collect();
         let timers = eq.timers;
         self.add_timers(timers);

@@ -18,14 +18,14 @@ pub enum LinearKind {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum Strategy {
-    /// Global Newton over all unknowns at once (the default).
-    Newton,
-    /// The increment as the minimisation of its incremental potential over all unknowns
-    /// (the method note's "One load increment"): every friends-list pair a contact at every
-    /// iterate, friction as a potential with its normal force lagged, projected Newton with
-    /// a Cholesky and an Armijo line search on the potential, bonds broken one at a time. In
-    /// progress: it does not yet converge on every increment that Newton does (see
-    /// docs/minimise.md).
+    /// The global solver (the default): the increment as the minimisation of its incremental
+    /// potential over all unknowns (the method note's "One load increment"), every
+    /// friends-list pair a contact at every iterate, friction as a potential with its normal
+    /// force lagged, projected Newton with a Cholesky and an Armijo line search on the
+    /// potential, bonds broken one at a time, the load path followed in halves where an
+    /// increment does not converge. `"newton"` reads as this too: it is projected Newton,
+    /// and solver files written for the global Newton it replaced keep working.
+    #[serde(alias = "newton")]
     Minimise,
     /// The thesis's grain-by-grain relaxation: each grain's equilibrium with its neighbours
     /// held fixed (eq. 19), grain after grain, `sweeps` times per increment.
@@ -36,7 +36,7 @@ pub enum Strategy {
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct SolverConfig {
-    /// Solution strategy. Default: Newton.
+    /// Solution strategy. Default: the minimisation.
     #[serde(default = "default_strategy")]
     pub strategy: Strategy,
     /// Relaxation: sweeps over all grains per increment (the thesis's `n_i`, 20 in its
@@ -58,19 +58,12 @@ pub struct SolverConfig {
     /// Default 1e-8.
     #[serde(default = "default_tolerance")]
     pub tolerance: f64,
-    /// Step tolerance: `|du|_inf <= displacement_tolerance * r_mean`. Default 1e-8.
-    #[serde(default = "default_tolerance")]
-    pub displacement_tolerance: f64,
-    /// Newton iterations allowed per topology pass. Default 40.
+    /// Newton iterations of the minimisation allowed per pass (a pass ends where a step
+    /// reaches the edge of the friends lists). Default 200.
     #[serde(default = "default_max_iterations")]
     pub max_iterations: usize,
-    /// Backtracking line search on `|R|` when a full step increases it. Default on.
-    #[serde(default = "yes")]
-    pub line_search: bool,
-    /// Topology passes allowed per increment before it counts as chatter. Default 30.
-    #[serde(default = "default_max_topology_passes")]
-    pub max_topology_passes: usize,
-    /// Times an increment may be halved before the run stops. Default 8.
+    /// Times a step that does not converge may be halved on the way along the increment's
+    /// load path before the run stops. Default 8.
     #[serde(default = "default_max_cuts")]
     pub max_cuts: u32,
     /// Friends-list skin, in mean radii. Default 0.5.
@@ -80,18 +73,6 @@ pub struct SolverConfig {
     /// rotations regular without changing the converged answer. Default 1e-10.
     #[serde(default = "default_lambda_min")]
     pub lambda_min: f64,
-    /// Cut-backs after which a failing increment is first settled by explicit damped dynamics
-    /// and then solved again, before it is cut further: at a limit point (a force chain
-    /// buckling, a crack running) there is no equilibrium near the last one however small
-    /// the step. Above `max_cuts`: never. Default 0: settle at the first failure.
-    #[serde(default = "default_settle_after_cuts")]
-    pub settle_after_cuts: u32,
-    /// Explicit steps a settling may take. Default 20,000.
-    #[serde(default = "default_settle_steps")]
-    pub settle_steps: usize,
-    /// Relative residual at which settling hands over to Newton. Default 1e-3.
-    #[serde(default = "default_settle_tolerance")]
-    pub settle_tolerance: f64,
     /// Count the negative pivots of an `L D L^T` of the symmetric tangent at each converged
     /// increment (the stability indicator): one more numeric factorisation per increment, and
     /// where walls are moved by displacement (freed for the count) one more symbolic analysis
@@ -101,7 +82,7 @@ pub struct SolverConfig {
 }
 
 fn default_strategy() -> Strategy {
-    Strategy::Newton
+    Strategy::Minimise
 }
 fn default_sweeps() -> usize {
     20
@@ -119,13 +100,10 @@ fn default_tolerance() -> f64 {
     1e-8
 }
 fn default_max_iterations() -> usize {
-    40
+    200
 }
 fn yes() -> bool {
     true
-}
-fn default_max_topology_passes() -> usize {
-    30
 }
 fn default_max_cuts() -> u32 {
     8
@@ -135,15 +113,6 @@ fn default_skin() -> f64 {
 }
 fn default_lambda_min() -> f64 {
     1e-10
-}
-fn default_settle_after_cuts() -> u32 {
-    0
-}
-fn default_settle_steps() -> usize {
-    20_000
-}
-fn default_settle_tolerance() -> f64 {
-    1e-3
 }
 
 impl Default for SolverConfig {
@@ -165,19 +134,14 @@ impl SolverConfig {
             }
         };
         positive("tolerance", self.tolerance);
-        positive("displacement_tolerance", self.displacement_tolerance);
         positive("skin", self.skin);
         positive("lambda_min", self.lambda_min);
         positive("truncate", self.truncate);
-        positive("settle_tolerance", self.settle_tolerance);
         if self.sweeps == 0 {
             bad.push(("sweeps".into(), "must be at least 1".into()));
         }
         if self.max_iterations == 0 {
             bad.push(("max_iterations".into(), "must be at least 1".into()));
-        }
-        if self.max_topology_passes == 0 {
-            bad.push(("max_topology_passes".into(), "must be at least 1".into()));
         }
         if self.linear == LinearKind::Cholesky && self.slip_tangent == SlipTangent::Consistent {
             bad.push((

@@ -1,8 +1,6 @@
-//! GMRES, right-preconditioned by a kept factorisation: Newton's step with the current tangent
-//! when the factorisation is of an earlier one. A linear scene's tangent changes only where
-//! contacts slip, crack or open, so the old factor is a close preconditioner and a few solves
-//! with it cost less than a new factorisation (on the 10,000-grain cylinder an LU
-//! factorisation costs about as much as sixteen solves with it).
+//! GMRES, right-preconditioned by a factorisation of a nearby matrix: the minimisation's
+//! semi-smooth steps solve with the unsymmetric consistent tangent, preconditioned by the
+//! Cholesky of the symmetric Hessian made in the same iteration.
 
 use faer::sparse::SymbolicSparseColMat;
 

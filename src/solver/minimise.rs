@@ -18,10 +18,20 @@
 
 use super::krylov;
 use super::linear::LinearSolver;
-pub use super::newton::SystemMatrix;
 use super::stats::SolverStats;
 use crate::NumericError;
-use faer::sparse::SparseColMatRef;
+use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
+
+/// The matrix the minimisation factorises: a fixed pattern, its values, and its diagonal
+/// slots.
+pub struct SystemMatrix<'a> {
+    /// Pattern (full storage).
+    pub symbolic: &'a SymbolicSparseColMat<usize>,
+    /// Values of the Hessian, filled by [`Potential::evaluate`].
+    pub values: &'a mut Vec<f64>,
+    /// Value index of each diagonal entry.
+    pub diagonal: &'a [usize],
+}
 
 /// An incremental potential `Pi(u)` with its gradient and projected Hessian in a fixed
 /// pattern.

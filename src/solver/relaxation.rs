@@ -5,12 +5,11 @@
 //! and the whole sample is swept again until the residual is small enough or the sweeps
 //! allowed (`n_i`) are spent.
 //!
-//! Like [`super::newton`] it knows nothing of the physics: the [`BlockEquations`] give each
-//! block's residual and stiffness. The elasto-plastic shear stiffness of the thesis (2.4) is
+//! It knows nothing of the physics: the [`BlockEquations`] give each block's residual and
+//! stiffness. The elasto-plastic shear stiffness of the thesis (2.4) is
 //! the equations' slip tangent; 'truncate' is here: no block moves more than a set length in
 //! one visit.
 
-use super::newton::{Equations, NewtonOutcome};
 use super::stats::SolverStats;
 use crate::NumericError;
 
@@ -54,8 +53,21 @@ impl BlockSystem {
     }
 }
 
-/// Equations that can also be solved one block at a time.
-pub trait BlockEquations: Equations {
+/// Equations solved one block at a time.
+pub trait BlockEquations {
+    /// Evaluate the residual `R(u)` of every unknown into `residual`.
+    fn evaluate(&mut self, u: &[f64], residual: &mut [f64]) -> Result<(), NumericError>;
+
+    /// Convergence measure of a residual: `(|R|_inf / F_ref, worst grain, |R|_2 / F_ref)`.
+    fn residual_norm(&self, residual: &[f64]) -> (f64, usize, f64);
+
+    /// How the stiffness of each unknown scales: 1 for a translation, `r^2` for a rotation.
+    fn unit_stiffness(&self, dof: usize) -> f64;
+
+    /// Whether the iterate is still far from the answer: the equations may then offer a
+    /// stiffer tangent where theirs vanishes (only the path changes, not the answer).
+    fn set_far(&mut self, far: bool);
+
     /// Number of blocks, visited in index order.
     fn blocks(&self) -> usize;
 
@@ -89,21 +101,33 @@ pub struct RelaxationSettings {
     pub truncate: f64,
 }
 
+/// How a relaxation pass ended.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct RelaxationOutcome {
+    /// Sweeps made.
+    pub iterations: usize,
+    /// Final relative residual.
+    pub residual: f64,
+    /// Relative residual before the first sweep and after each.
+    pub history: Vec<f64>,
+    /// Stopped where a gap closed or a block neared the edge of its friends lists: the
+    /// topology is updated before the sweeps go on.
+    pub at_reach: bool,
+}
+
 /// Run sweeps from `u` until the tolerance is met, the sweeps are spent, or the topology must
-/// be updated. The outcome reads as Newton's: `iterations` are sweeps, `history` the relative
-/// residual after each, `closed_gap` that the pass stopped for the topology, and
-/// `converged` that the tolerance was met.
+/// be updated.
 pub fn relax(
     eq: &mut dyn BlockEquations,
     u: &mut [f64],
     settings: &RelaxationSettings,
     stats: &mut SolverStats,
-) -> Result<NewtonOutcome, NumericError> {
+) -> Result<RelaxationOutcome, NumericError> {
     let mut residual = vec![0.0; u.len()];
     eq.set_far(true);
-    eq.evaluate(u, &mut residual, None)?;
-    let (mut rel, mut worst, _) = eq.residual_norm(&residual);
-    let mut out = NewtonOutcome {
+    eq.evaluate(u, &mut residual)?;
+    let mut rel = eq.residual_norm(&residual).0;
+    let mut out = RelaxationOutcome {
         history: vec![rel],
         ..Default::default()
     };
@@ -113,7 +137,6 @@ pub fn relax(
         stats.counters.newton_iterations += 1;
         eq.set_far(rel > FAR);
         eq.begin_sweep(u)?;
-        let mut largest = 0.0f64;
         for block in 0..eq.blocks() {
             eq.block_system(block, &mut system)?;
             let mut du = solve_block(eq, &system);
@@ -124,7 +147,6 @@ pub fn relax(
             if length > limit {
                 du.iter_mut().for_each(|d| *d *= limit / length);
             }
-            largest = largest.max(length.min(limit));
             for k in 0..system.len {
                 u[system.dofs[k]] += du[k];
             }
@@ -132,10 +154,10 @@ pub fn relax(
                 out.at_reach = true;
             }
         }
-        eq.evaluate(u, &mut residual, None)?;
+        eq.evaluate(u, &mut residual)?;
+        let worst;
         (rel, worst, _) = eq.residual_norm(&residual);
         out.history.push(rel);
-        out.step = largest;
         if !rel.is_finite() {
             return Err(NumericError::NotFinite {
                 what: "relaxation residual",
@@ -146,9 +168,7 @@ pub fn relax(
             break;
         }
     }
-    out.converged = rel <= settings.tolerance;
     out.residual = rel;
-    out.worst_grain = worst;
     Ok(out)
 }
 

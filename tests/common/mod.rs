@@ -163,3 +163,27 @@ stress = 1e5
 increments = 2
 stress = { top = 2e5, right = 1e5 }
 "#;
+
+/// A disc under a stress-controlled wall with nothing beneath: the wall's load does work
+/// without end, and no equilibrium is near.
+pub const FALLING_DISC: &str = r#"
+name = "falling-disc"
+[material]
+law = "linear"
+normal_stiffness = 1e6
+poisson = 0.16
+friction = 0.5
+[grains]
+x = [1e-4]
+y = [1e-4]
+r = [1e-4]
+[[walls]]
+name = "top"
+point = [0.0, 2e-4]
+normal = [0.0, -1.0]
+control = "stress"
+length = 2e-4
+[[stages]]
+increments = 1
+stress = { top = 1e5 }
+"#;

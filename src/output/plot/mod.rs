@@ -505,7 +505,7 @@ pub fn plot_study(
 ) -> Result<Vec<PathBuf>, Error> {
     load_font()?;
     let families = [
-        ("newton", "tolerance", "global Newton, by tolerance"),
+        ("minimise", "tolerance", "global minimisation, by tolerance"),
         ("relaxation", "n_i", "relaxation, n_i sweeps per increment"),
         ("relaxation", "tolerance", "relaxation, to a tolerance"),
     ];

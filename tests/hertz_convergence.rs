@@ -1,12 +1,11 @@
-//! Newton on Hertz samples: the consistent tangent converges quadratically, the symbolic
-//! factorisation is made once per pattern, and samples with rattlers or without friction
-//! solve without a singular-matrix failure.
+//! The minimisation on Hertz samples: a handful of iterations per increment, one symbolic
+//! factorisation per pattern, and samples with rattlers or without friction solve without a
+//! singular-matrix failure.
 
-use grainstat::contact::SlipTangent;
 use grainstat::samples;
 use grainstat::scene::{build_grains, Scene};
 use grainstat::simulation::Simulation;
-use grainstat::solver::{LinearKind, SolverConfig};
+use grainstat::solver::SolverConfig;
 use std::path::Path;
 
 fn simulation(scene: &Scene, config: SolverConfig) -> Simulation {
@@ -14,48 +13,43 @@ fn simulation(scene: &Scene, config: SolverConfig) -> Simulation {
     Simulation::new(scene, grains, config, "patch").unwrap()
 }
 
-fn tight(linear: LinearKind, slip_tangent: SlipTangent) -> SolverConfig {
+fn tight() -> SolverConfig {
     SolverConfig {
-        linear,
-        slip_tangent,
         tolerance: 1e-12,
-        displacement_tolerance: 1e-12,
         ..SolverConfig::default()
     }
 }
 
+/// A Hertz patch from first touch to 2 bar, to a tolerance near round-off: once the first two
+/// increments have brought it from just touching to 1 bar, each increment takes a handful of
+/// iterations (5 to 7 measured).
 #[test]
-fn newton_converges_quadratically_on_a_hertz_sample() {
+fn the_minimisation_takes_a_handful_of_iterations_per_increment_on_a_hertz_sample() {
     let scene = samples::hertz_patch(12, 10, 1, 0.6, 0.03, 0);
-    let mut sim = simulation(&scene, tight(LinearKind::Lu, SlipTangent::Consistent));
-    let mut rates = Vec::new();
+    // Without the stability indicator, whose system with the walls freed has a symbolic
+    // factorisation of its own.
+    let config = SolverConfig {
+        stability_indicator: false,
+        ..tight()
+    };
+    let mut sim = simulation(&scene, config);
+    let mut iterations = Vec::new();
     while !sim.is_finished() {
         let report = sim.run_increment().unwrap();
         let h = &sim.last_residuals;
         let printed: Vec<String> = h.iter().map(|r| format!("{r:.1e}")).collect();
         eprintln!(
-            "increment {}: residuals {}",
+            "increment {}: {} iterations, residuals {}",
             report.increment,
+            report.newton_iterations,
             printed.join(" ")
         );
-        // Once the increment's start is behind (the first two bring the sample from just
-        // touching to 1 bar), the order of convergence log r_{k+1} / log r_k over the
-        // iterations in the asymptotic range: from 1e-1 down to the round-off floor.
         if report.increment > 2 {
-            for w in h.windows(2) {
-                if w[0] < 1e-1 && w[1] > 1e-11 {
-                    rates.push(w[1].ln() / w[0].ln());
-                }
-            }
+            iterations.push(report.newton_iterations);
         }
     }
-    eprintln!("orders of convergence: {rates:.2?}");
-    assert!(!rates.is_empty());
-    let worst = rates.iter().cloned().fold(f64::INFINITY, f64::min);
-    assert!(
-        worst > 1.8,
-        "order of convergence {worst:.2} (quadratic is 2)"
-    );
+    let most = iterations.iter().copied().max().unwrap_or(0);
+    assert!(most <= 8, "iterations per increment {iterations:?}");
 
     // One symbolic factorisation for the first pattern and one per rebuild of the friends
     // lists, reused by every numeric one.
@@ -95,10 +89,7 @@ fn a_sample_with_rattlers_solves_and_its_rattlers_stay_put() {
 #[test]
 fn a_frictionless_sample_solves() {
     let scene = samples::hertz_patch(12, 10, 1, 0.0, 0.0, 0);
-    for config in [
-        SolverConfig::default(),
-        tight(LinearKind::Lu, SlipTangent::Consistent),
-    ] {
+    for config in [SolverConfig::default(), tight()] {
         let mut sim = simulation(&scene, config);
         while !sim.is_finished() {
             let report = sim.run_increment().unwrap();
