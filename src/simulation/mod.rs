@@ -612,7 +612,10 @@ impl Simulation {
         let u = vec![0.0; self.dofs.len];
         let mut r = vec![0.0; self.dofs.len];
         let mut eq = self.equations(&step);
-        if eq.evaluate_at(&u, &mut r, None).is_err() {
+        // The minimisation's contacts respond with the lag refrozen where they are: the true
+        // law (the lag left by the last solve, or none in a state read back or just made).
+        let refreeze = eq.lagged;
+        if Potential::evaluate(&mut eq, &u, &mut r, None, refreeze).is_err() {
             return (f64::INFINITY, 0);
         }
         let (rel, worst, _) = eq.residual_norm(&r);
