@@ -86,8 +86,8 @@ impl std::error::Error for InputError {}
 /// A numerical failure of the solver.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum NumericError {
-    /// The solver did not reach the tolerance (Newton after cutting the step down to the
-    /// floor; the minimisation, which does not cut, within its iterations).
+    /// The solver did not reach the tolerance: the minimisation within its iterations, after
+    /// halving the step `cuts` times.
     #[error(
         "increment {increment} did not converge: relative residual {residual:.3e}{} (worst \
          grain {worst_grain}); the last converged state was written",

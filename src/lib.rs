@@ -11,19 +11,21 @@
 //! pipeline:
 //!
 //! 1. apply the increment: prescribed walls move, wall stresses change ([`scene`]);
-//! 2. contact detection within the friends lists ([`geometry`]);
-//! 3. contact laws by the return map from the last converged state ([`contact`]);
-//! 4. assembly of residual and tangent into a fixed pattern ([`assembly`]);
-//! 5. the linear solve with a cached symbolic factorisation, inside Newton with line
-//!    search and Levenberg-Marquardt regularisation ([`solver`]);
-//! 6. the topology update: contacts made and lost, bonds broken, then Newton again;
-//! 7. measurements ([`measure`]: wall stresses, eq. A.41 and its regional form A.40,
+//! 2. every pair of the friends lists a contact of the increment ([`geometry`]);
+//! 3. contact laws, friction as a potential with its normal force lagged ([`contact`]);
+//! 4. assembly of the residual and the projected Hessian into a fixed pattern
+//!    ([`assembly`]);
+//! 5. the minimisation of the increment's potential: projected Newton with a line search on
+//!    the potential and a Cholesky with a cached symbolic factorisation ([`solver`]),
+//!    contacts made and lost wherever the iterate puts them, bonds broken one at a time,
+//!    the load path followed in halves where it does not converge;
+//! 6. measurements ([`measure`]: wall stresses, eq. A.41 and its regional form A.40,
 //!    contact counts, grain rotations) and output ([`output`]).
 //!
 //! Sign conventions: compression is positive (forces and stresses), rotations are
 //! anticlockwise, `n` points from side `a` to grain `b` of a contact and `t` is `n` turned
 //! 90 degrees anticlockwise. Symbols: `u` is the displacement of the unknowns over the
-//! current load increment, `du` one Newton correction of it.
+//! current load increment, `du` one Newton step of it.
 
 #![warn(missing_docs)]
 
