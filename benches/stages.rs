@@ -20,7 +20,7 @@
 use criterion::{criterion_group, criterion_main, BatchSize, BenchmarkId, Criterion};
 use faer::sparse::SparseColMatRef;
 use grainstat::assembly::{DofMap, Pattern};
-use grainstat::contact::{Configuration, SlipTangent};
+use grainstat::contact::Configuration;
 use grainstat::geometry::FriendSet;
 use grainstat::samples;
 use grainstat::scene::{build_grains, Scene};
@@ -129,7 +129,6 @@ fn stages(c: &mut Criterion) {
             dofs: &dofs,
             pattern: &pattern,
             law: law.as_ref(),
-            slip_tangent: SlipTangent::ElastoPlastic,
             symmetric: true,
             depth,
             r_mean,
@@ -172,7 +171,7 @@ fn stages(c: &mut Criterion) {
         let matrix = SparseColMatRef::new(pattern.symbolic.as_ref(), &values);
         for (threads, pool) in &pools {
             let mut stats = SolverStats::default();
-            let mut linear = LinearSolver::new(config.linear);
+            let mut linear = LinearSolver::new();
             pool.install(|| linear.analyse(&pattern.symbolic, &mut stats).unwrap());
             group.bench_function(id("factorisation", *threads), |b| {
                 b.iter(|| pool.install(|| linear.factorize(matrix, &mut stats).unwrap()))

@@ -13,7 +13,7 @@ use grainstat::output::{read_increments, read_state};
 use grainstat::scene::{parse_scene, parse_solver};
 use grainstat::simulation::Simulation;
 use grainstat::solver::linear::NotFactorizable;
-use grainstat::solver::{LinearKind, LinearSolver, SolverStats};
+use grainstat::solver::{LinearSolver, SolverStats};
 use std::time::Instant;
 
 fn main() {
@@ -51,7 +51,7 @@ fn report(path: &str, increment: Option<usize>, repeats: usize) -> grainstat::Re
     println!("|---|---|---|---|---|---|---|---|");
     let mut sim = Simulation::resume(&scene, state.clone(), header.depth, config.clone())?;
     let mut stats = SolverStats::default();
-    let mut linear = LinearSolver::new(LinearKind::Cholesky);
+    let mut linear = LinearSolver::new();
     let (mut lambda, mut analysis) = (0.0f64, None);
     // Regularised further until it factorises, as the minimisation does.
     let (pattern, values) = loop {

@@ -50,7 +50,7 @@ fn bad_solver_and_grain_files_are_exit_status_2() {
     let dir = tempfile::tempdir().unwrap();
     let scene = crystal_scene(dir.path(), 1);
     let solver = dir.path().join("solver.toml");
-    std::fs::write(&solver, "linear = \"cholesky\"\ntolerance = -1.0\n").unwrap();
+    std::fs::write(&solver, "skin = 0.5\ntolerance = -1.0\n").unwrap();
     let out = grainstat(&[
         "run",
         scene.to_str().unwrap(),
@@ -58,6 +58,15 @@ fn bad_solver_and_grain_files_are_exit_status_2() {
         solver.to_str().unwrap(),
     ]);
     assert_input_error(&out, &["solver.toml:2", "tolerance"]);
+    // A setting of the Newton solver the minimisation replaced.
+    std::fs::write(&solver, "strategy = \"newton\"\nsettle_steps = 20000\n").unwrap();
+    let out = grainstat(&[
+        "run",
+        scene.to_str().unwrap(),
+        "--solver",
+        solver.to_str().unwrap(),
+    ]);
+    assert_input_error(&out, &["solver.toml:2", "settle_steps", "Newton"]);
 
     let csv = dir.path().join("grains.csv");
     std::fs::write(&csv, "x,y,r\n0.0,0.0,1e-4\n1e-4,zero,1e-4\n").unwrap();

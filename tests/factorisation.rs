@@ -7,7 +7,7 @@ use faer::sparse::SparseColMatRef;
 use grainstat::samples;
 use grainstat::scene::build_grains;
 use grainstat::simulation::Simulation;
-use grainstat::solver::{LinearKind, LinearSolver, SolverConfig, SolverStats};
+use grainstat::solver::{LinearSolver, SolverConfig, SolverStats};
 use std::collections::HashMap;
 use std::path::Path;
 
@@ -38,7 +38,7 @@ fn the_next_tangent_is_symmetric_and_factorises() {
     for (dof, &slot) in pattern.diagonal.iter().enumerate() {
         assert!(values[slot] > 0.0, "diagonal {dof} is {:e}", values[slot]);
     }
-    let mut linear = LinearSolver::new(LinearKind::Cholesky);
+    let mut linear = LinearSolver::new();
     let mut stats = SolverStats::default();
     linear.analyse(&pattern.symbolic, &mut stats).unwrap();
     let matrix = SparseColMatRef::new(symbolic, &values);

@@ -457,7 +457,7 @@ fn solver_files() {
         "{e}"
     );
 
-    let text = "linear = \"lu\"\n\nskin = nan\n";
+    let text = "tolerance = 1e-9\n\nskin = nan\n";
     let e = parse_solver(text, "solver.toml").unwrap_err();
     assert_eq!((e.key.as_deref(), e.line), (Some("skin"), Some(3)), "{e}");
 
@@ -468,6 +468,44 @@ fn solver_files() {
         (Some("slip_tangent"), Some(2)),
         "{e}"
     );
+}
+
+/// The Newton solver's files: its strategy reads as the minimisation, each of its own
+/// settings is refused, named with its line.
+#[test]
+fn solver_files_of_the_newton_solver() {
+    let cfg = parse_solver("strategy = \"newton\"\n", "solver.toml").unwrap();
+    assert_eq!(cfg, grainstat::solver::SolverConfig::default());
+    for (key, value) in [
+        ("linear", "\"lu\""),
+        ("slip_tangent", "\"elasto-plastic\""),
+        ("displacement_tolerance", "1e-8"),
+        ("line_search", "true"),
+        ("max_topology_passes", "30"),
+        ("settle_after_cuts", "0"),
+        ("settle_steps", "20000"),
+        ("settle_tolerance", "1e-3"),
+    ] {
+        let text = format!("tolerance = 1e-8\n{key} = {value}\n");
+        let e = parse_solver(&text, "solver.toml").unwrap_err();
+        assert_eq!((e.key.as_deref(), e.line), (Some(key), Some(2)), "{e}");
+        assert!(e.message.contains("Newton"), "{e}");
+    }
+}
+
+/// The presets: `minimise.toml` is the defaults written out, `reference.toml` the global
+/// solver to a tighter tolerance.
+#[test]
+fn the_solver_presets_read() {
+    let read = |name: &str| {
+        let path = format!("solvers/{name}");
+        parse_solver(&std::fs::read_to_string(&path).unwrap(), &path).unwrap()
+    };
+    let defaults = grainstat::solver::SolverConfig::default();
+    assert_eq!(read("minimise.toml"), defaults);
+    let reference = read("reference.toml");
+    assert_eq!(reference.strategy, defaults.strategy);
+    assert!(reference.tolerance < defaults.tolerance);
 }
 
 #[test]

@@ -1,19 +1,6 @@
 //! Contact laws (thesis 2.1): the force of one contact from its overlap and its shear
 //! displacement in this increment, by the return map from the last converged state, with
-//! the tangent Newton needs. Each law is trial -> elastic exit -> return map.
-
-/// Which tangent of Coulomb slip to give (thesis 2.4 and the method note).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum SlipTangent {
-    /// `k_s = 0` while sliding and no unsymmetric terms: symmetric, for Cholesky (linear rate).
-    ElastoPlastic,
-    /// The exact derivative of the return map: unsymmetric, for LU (quadratic rate).
-    Consistent,
-    /// The elastic `k_s` whether the contact slides or not: a sliding contact unloads with
-    /// it, so it bounds the stiffness in every direction (the masses of settling).
-    Elastic,
-}
+//! its tangent. Each law is trial -> elastic exit -> return map.
 
 /// The fixed properties of one contact, set when it is made.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -58,15 +45,16 @@ pub trait ContactLaw: Send + Sync {
     /// for an unbonded contact apart).
     fn normal_energy(&self, p: &ContactParams, n: f64, bonded: bool) -> f64;
 
-    /// Smallest normal tangent worth offering Newton while it is far from the answer, for a
-    /// contact expected to carry about `force_scale`: a law whose stiffness vanishes at first
-    /// touch says how stiff such a contact will be; the others need no floor.
+    /// Smallest normal tangent worth offering a solver for a contact expected to carry about
+    /// `force_scale`: a law whose stiffness vanishes at first touch says how stiff such a
+    /// contact will be; the others need no floor.
     fn tangent_floor(&self, _p: &ContactParams, _force_scale: f64) -> f64 {
         0.0
     }
 
     /// The full response: elastic trial `F_s0 + k_s ds`, then, unless bonded, the return
-    /// map onto `|F_s| = f F_n`.
+    /// map onto `|F_s| = f F_n`, with the thesis's elasto-plastic tangent (2.4): `k_s` while
+    /// sticking, nothing while sliding, and no shear force change with the overlap.
     fn respond(
         &self,
         p: &ContactParams,
@@ -74,54 +62,32 @@ pub trait ContactLaw: Send + Sync {
         overlap: f64,
         shear_force0: f64,
         shear_increment: f64,
-        tangent: SlipTangent,
     ) -> Response {
         let (normal_force, dfn_dn) = self.normal(p, overlap, bonded);
-        let (ks, dks_dn) = self.shear_stiffness(p, overlap);
+        let ks = self.shear_stiffness(p, overlap).0;
         let trial = shear_force0 + ks * shear_increment;
-        let consistent = tangent == SlipTangent::Consistent;
         let limit = p.friction * normal_force.max(0.0);
-        if bonded || p.friction.is_infinite() || trial.abs() <= limit {
-            return Response {
-                normal_force,
-                shear_force: trial,
-                sliding: false,
-                dfn_dn,
-                dfs_dn: if consistent {
-                    dks_dn * shear_increment
-                } else {
-                    0.0
-                },
-                dfs_ds: ks,
-            };
-        }
-        // Return map: back onto the Coulomb limit, keeping the direction of the trial force.
-        let sign = trial.signum();
-        let on_limit = normal_force > 0.0;
+        let sticks = bonded || p.friction.is_infinite() || trial.abs() <= limit;
         Response {
             normal_force,
-            shear_force: sign * limit,
-            sliding: true,
+            // Return map: back onto the Coulomb limit, keeping the direction of the trial force.
+            shear_force: if sticks {
+                trial
+            } else {
+                trial.signum() * limit
+            },
+            sliding: !sticks,
             dfn_dn,
-            dfs_dn: if consistent && on_limit {
-                sign * p.friction * dfn_dn
-            } else {
-                0.0
-            },
-            dfs_ds: if tangent == SlipTangent::Elastic {
-                ks
-            } else {
-                0.0
-            },
+            dfs_dn: 0.0,
+            dfs_ds: if sticks { ks } else { 0.0 },
         }
     }
 }
 
 /// Linear springs with tension while bonded (eqs. 8-12): `F_n = k_n n`, `k_s = kappa k_n`.
-/// Within one Newton pass an unbonded contact keeps its spring in tension too, so that the
-/// equations stay smooth; the topology pass then removes it (method note, step 3). The
-/// minimisation takes an unbonded contact apart as carrying nothing (see
-/// [`ContactLaw::normal_energy`]).
+/// Within one pass of the relaxation an unbonded contact keeps its spring in tension too, so
+/// that the equations stay smooth; the topology update then removes it. The minimisation
+/// takes an unbonded contact apart as carrying nothing (see [`ContactLaw::normal_energy`]).
 #[derive(Debug, Clone, Copy, Default)]
 pub struct LinearCohesive;
 
@@ -260,11 +226,11 @@ mod tests {
     #[test]
     fn return_map_lands_on_the_coulomb_limit() {
         let p = params();
-        let r = LinearCohesive.respond(&p, false, 1e-6, 0.0, 1e-5, SlipTangent::Consistent);
+        let r = LinearCohesive.respond(&p, false, 1e-6, 0.0, 1e-5);
         assert!(r.sliding);
         assert!((r.shear_force - 0.5 * 100.0).abs() < 1e-12);
-        assert_eq!(r.dfs_ds, 0.0);
-        assert!((r.dfs_dn - 0.5 * 1e8).abs() < 1e-6);
+        // The elasto-plastic tangent: no stiffness along the slip.
+        assert_eq!((r.dfs_ds, r.dfs_dn), (0.0, 0.0));
     }
 
     #[test]

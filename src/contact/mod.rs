@@ -9,7 +9,7 @@ mod law;
 pub use kinematics::{Configuration, Kinematics};
 pub use law::{
     friction, hertz_stiffness, kappa, mean_radius, ContactLaw, ContactParams, Friction,
-    HertzMindlin, LinearCohesive, Response, SlipTangent,
+    HertzMindlin, LinearCohesive, Response,
 };
 
 use crate::geometry::{Pair, Side};

@@ -10,7 +10,6 @@
 //! Masses are scaled (all equal, set by the contact stiffness so that a time step of one is
 //! stable): only the state at rest matters.
 
-use crate::contact::SlipTangent;
 use crate::geometry::{FriendSet, GrainSet, Pair, Side, WallControl, WallSet};
 use crate::simulation::MaterialModel;
 
@@ -146,14 +145,7 @@ pub fn grow(
                 continue;
             };
             let params = prep.params(*pair, &now, walls);
-            let response = law.respond(
-                &params,
-                false,
-                c.overlap,
-                shear[k_pair],
-                c.slip,
-                SlipTangent::ElastoPlastic,
-            );
+            let response = law.respond(&params, false, c.overlap, shear[k_pair], c.slip);
             shear[k_pair] = response.shear_force;
             let (fn_, fs) = (response.normal_force, response.shear_force);
             let on_b = [

@@ -10,6 +10,7 @@ use super::validate::{grain_problems, validate};
 use super::{GrainSource, Scene};
 use crate::error::{Error, InputError};
 use crate::geometry::GrainSet;
+use crate::solver::config::REMOVED_SOLVER_KEYS;
 use crate::solver::SolverConfig;
 use serde::de::DeserializeOwned;
 use std::ops::Range;
@@ -38,9 +39,22 @@ pub fn load_solver(path: &Path) -> Result<(SolverConfig, String), InputError> {
     parse_solver(&text, &file).map(|config| (config, text))
 }
 
-/// Parses and checks solver settings given as text; `file` is only used in error messages.
+/// Parses and checks solver settings given as text; `file` is only used in error messages. A
+/// setting of the global Newton solver the minimisation replaced is refused as unknown, with
+/// a word on why.
 pub fn parse_solver(text: &str, file: &str) -> Result<SolverConfig, InputError> {
-    parse_checked(text, file, SolverConfig::validate)
+    parse_checked(text, file, SolverConfig::validate).map_err(|mut e| {
+        if e.key
+            .as_deref()
+            .is_some_and(|k| REMOVED_SOLVER_KEYS.contains(&k))
+        {
+            e.message.push_str(
+                "; it was a setting of the global Newton solver, which the minimisation \
+                 replaced: leave it out",
+            );
+        }
+        e
+    })
 }
 
 /// The grains of a scene: inline lists, a CSV file or a sample file (both relative to

@@ -3,7 +3,7 @@
 
 use super::LoadStep;
 use crate::assembly::{contact_block, frame_turn_force, BlockTangent, DofMap, PairMap, Pattern};
-use crate::contact::{kinematics, Configuration, Contact, ContactLaw, Kinematics, SlipTangent};
+use crate::contact::{kinematics, Configuration, Contact, ContactLaw, Kinematics};
 use crate::geometry::{
     rotate, Chain, FriendSet, GrainSet, Membrane, MembraneShape, Pair, Side, WallSet,
 };
@@ -191,9 +191,8 @@ pub struct IncrementEquations<'a> {
     pub pattern: &'a Pattern,
     /// The contact law.
     pub law: &'a dyn ContactLaw,
-    /// Slip tangent.
-    pub slip_tangent: SlipTangent,
-    /// Whether the tangent must be symmetric (Cholesky).
+    /// Whether the tangent must be symmetric (for the Cholesky): off only for the consistent
+    /// tangent of the semi-smooth steps.
     pub symmetric: bool,
     /// Depth `D` (m).
     pub depth: f64,
@@ -384,7 +383,6 @@ impl IncrementEquations<'_> {
             c.overlap,
             c.shear_force0,
             c.shear_increment,
-            self.slip_tangent,
         );
         if c.overlap < 0.0 && !c.bonded && self.reopened.binary_search(&c.pair).is_ok() {
             (c.response.normal_force, c.response.shear_force) = (0.0, 0.0);

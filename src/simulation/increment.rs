@@ -269,10 +269,7 @@ impl Simulation {
             let pattern = Arc::clone(&self.pattern);
             let mut values = std::mem::take(&mut self.values);
             let mut stats = self.stats;
-            let mut linear = std::mem::replace(
-                &mut self.linear,
-                crate::solver::LinearSolver::new(crate::solver::LinearKind::Cholesky),
-            );
+            let mut linear = std::mem::take(&mut self.linear);
             let mut eq = self.equations(step);
             let result = minimise::minimise(
                 &mut eq,

@@ -25,7 +25,7 @@ use crate::geometry::{chains, Chain, FriendSet, GrainSet, Pair, Side, WallContro
 use crate::measure::{measure, Measurements, MembraneBoundary, Region};
 use crate::solver::minimise::{self, Potential};
 use crate::solver::stats::{secs, StageTimers};
-use crate::solver::{LinearKind, LinearSolver, SolverConfig, SolverStats, Strategy};
+use crate::solver::{LinearSolver, SolverConfig, SolverStats, Strategy};
 use crate::state::{IncrementReport, State};
 use crate::NumericError;
 use std::sync::Arc;
@@ -134,7 +134,7 @@ impl Simulation {
         let pattern = Arc::new(Pattern::build(&friends, &dofs, &state.walls, &links));
         let mut sim = Simulation {
             name,
-            linear: LinearSolver::new(config.linear),
+            linear: LinearSolver::new(),
             config,
             material,
             depth,
@@ -395,8 +395,7 @@ impl Simulation {
             dofs: &self.dofs,
             pattern: &self.pattern,
             law: self.law.as_ref(),
-            slip_tangent: self.config.slip_tangent,
-            symmetric: self.config.linear == LinearKind::Cholesky,
+            symmetric: true,
             depth: self.depth,
             r_mean: self.r_mean,
             q: &mut self.q,

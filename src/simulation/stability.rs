@@ -3,9 +3,8 @@
 
 use super::{LoadStep, Simulation};
 use crate::assembly::{DofMap, Pattern};
-use crate::contact::SlipTangent;
 use crate::geometry::{Chain, WallControl};
-use crate::solver::{LinearKind, LinearSolver};
+use crate::solver::LinearSolver;
 use faer::sparse::SparseColMatRef;
 use std::sync::Arc;
 
@@ -31,10 +30,9 @@ impl Simulation {
     /// `1 / sqrt(k u_i)`, `k` the mean diagonal stiffness, `u_i` the unit of the row: a
     /// congruence, so the count is the same), and pivots above `-PIVOT_THRESHOLD` count as
     /// zero: rattlers and free rotations leave the tangent singular, and round-off must not
-    /// make them negative. `None` when turned off, with an LU solver, or when the
-    /// factorisation fails.
+    /// make them negative. `None` when turned off, or when the factorisation fails.
     pub(super) fn negative_pivots(&mut self, step: &LoadStep, u: &[f64]) -> Option<usize> {
-        if !self.config.stability_indicator || self.linear.kind() != LinearKind::Cholesky {
+        if !self.config.stability_indicator {
             return None;
         }
         if self
@@ -46,8 +44,7 @@ impl Simulation {
         {
             let pattern = Arc::clone(&self.pattern);
             let dofs = self.dofs.clone();
-            let mut linear =
-                std::mem::replace(&mut self.linear, LinearSolver::new(LinearKind::Cholesky));
+            let mut linear = std::mem::take(&mut self.linear);
             let count = self.count_negative_pivots(step, u, &dofs, &pattern, &mut linear);
             self.linear = linear;
             return count;
@@ -71,7 +68,7 @@ impl Simulation {
             );
             let links: Vec<(usize, usize)> = self.chains.iter().flat_map(Chain::links).collect();
             let pattern = Arc::new(Pattern::build(&self.friends, &dofs, &walls, &links));
-            let mut linear = LinearSolver::new(LinearKind::Cholesky);
+            let mut linear = LinearSolver::new();
             linear.analyse(&pattern.symbolic, &mut self.stats).ok()?;
             self.freed = Some(FreedSystem {
                 source: Arc::clone(&self.pattern),
@@ -121,7 +118,6 @@ impl Simulation {
         let mut eq = self.equations(step);
         eq.dofs = dofs;
         eq.pattern = pattern;
-        eq.slip_tangent = SlipTangent::ElastoPlastic;
         eq.symmetric = true;
         eq.projected = false;
         let evaluated = eq.evaluate_at(u, &mut residual, Some(&mut values));

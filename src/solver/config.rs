@@ -1,18 +1,7 @@
 //! Solver settings: how a scene is solved, read from a file under `solvers/`. Plain data with
 //! documented defaults; [`SolverConfig::validate`] says what is out of range.
 
-use crate::contact::SlipTangent;
 use serde::{Deserialize, Serialize};
-
-/// Which sparse factorisation solves the Newton systems.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum LinearKind {
-    /// Supernodal Cholesky `L L^T` of the symmetric tangent (the default).
-    Cholesky,
-    /// Sparse LU of the full, unsymmetric consistent tangent (6-9x the cost).
-    Lu,
-}
 
 /// How the equilibrium of an increment is found.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
@@ -32,6 +21,19 @@ pub enum Strategy {
     Relaxation,
 }
 
+/// Settings of the global Newton solver the minimisation replaced: a solver file that still
+/// sets one is refused, and told so.
+pub const REMOVED_SOLVER_KEYS: [&str; 8] = [
+    "linear",
+    "slip_tangent",
+    "displacement_tolerance",
+    "line_search",
+    "max_topology_passes",
+    "settle_after_cuts",
+    "settle_steps",
+    "settle_tolerance",
+];
+
 /// How a scene is solved.
 #[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
@@ -48,12 +50,6 @@ pub struct SolverConfig {
     /// Default 0.05.
     #[serde(default = "default_truncate")]
     pub truncate: f64,
-    /// Sparse factorisation. Default: Cholesky.
-    #[serde(default = "default_linear")]
-    pub linear: LinearKind,
-    /// Tangent of Coulomb slip. Default: elasto-plastic (symmetric); LU wants consistent.
-    #[serde(default = "default_slip_tangent")]
-    pub slip_tangent: SlipTangent,
     /// Equilibrium tolerance: `|R|_inf <= tolerance * F_ref`, `F_ref` the mean contact force.
     /// Default 1e-8.
     #[serde(default = "default_tolerance")]
@@ -89,12 +85,6 @@ fn default_sweeps() -> usize {
 }
 fn default_truncate() -> f64 {
     0.05
-}
-fn default_linear() -> LinearKind {
-    LinearKind::Cholesky
-}
-fn default_slip_tangent() -> SlipTangent {
-    SlipTangent::ElastoPlastic
 }
 fn default_tolerance() -> f64 {
     1e-8
@@ -142,12 +132,6 @@ impl SolverConfig {
         }
         if self.max_iterations == 0 {
             bad.push(("max_iterations".into(), "must be at least 1".into()));
-        }
-        if self.linear == LinearKind::Cholesky && self.slip_tangent == SlipTangent::Consistent {
-            bad.push((
-                "slip_tangent".into(),
-                "the consistent slip tangent is unsymmetric: it needs `linear = \"lu\"`".into(),
-            ));
         }
         bad
     }

@@ -1,8 +1,7 @@
-//! The sparse direct solver: faer's supernodal Cholesky for symmetric tangents, sparse LU for
-//! the unsymmetric consistent tangent. The symbolic factorisation is made once per pattern and
-//! reused across Newton iterations, topology passes and increments; the numeric storage and
-//! the scratch memory are kept too (stack-notes.md: a fresh allocation per factorisation costs
-//! 1.15-1.5x).
+//! The sparse direct solver: faer's supernodal Cholesky of the symmetric Hessian. The symbolic
+//! factorisation is made once per pattern and reused across iterations, passes and
+//! increments; the numeric storage and the scratch memory are kept too (stack-notes.md: a
+//! fresh allocation per factorisation costs 1.15-1.5x).
 //!
 //! Contract: [`LinearSolver::analyse`] is called whenever the pattern changes (friends lists
 //! rebuilt); [`LinearSolver::factorize`] whenever values change; [`LinearSolver::solve_in_place`]
@@ -12,7 +11,6 @@
 //! matrix in the Cholesky pattern, into storage of its own, so the `L L^T` it solves with
 //! stays valid: by Sylvester's law of inertia, the number of negative eigenvalues.
 
-use super::config::LinearKind;
 use super::stats::{secs, SolverStats};
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::cholesky::ldlt::factor::LdltRegularization;
@@ -21,7 +19,6 @@ use faer::sparse::linalg::cholesky::{
     factorize_symbolic_cholesky, simplicial::SimplicialLdltRef, supernodal::SupernodalLdltRef,
     LltRef, SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering,
 };
-use faer::sparse::linalg::lu::{factorize_symbolic_lu, LuRef, NumericLu, SymbolicLu};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
 use faer::{Conj, MatMut, Par, Side};
 use std::time::Instant;
@@ -32,47 +29,46 @@ pub struct NotFactorizable(pub String);
 
 /// Unknowns from which faer's Cholesky runs on the pool's threads. On two free cores,
 /// 300,000 unknowns factorise 1.25 times as fast on two threads, 30,000 no faster
-/// (docs/performance.md, Threads). Its factors are the same bit for bit on any number of threads; the parallel
-/// LU's are not, so the LU stays on one thread.
+/// (docs/performance.md, Threads). Its factors are the same bit for bit on any number of
+/// threads.
 pub const PARALLEL_UNKNOWNS: usize = 100_000;
 
-enum Symbolic {
-    None,
-    /// The symbolic factorisation, the values of `L L^T`, and those of the `L D L^T` of the
-    /// stability indicator (allocated when first needed).
-    Cholesky(SymbolicCholesky<usize>, Vec<f64>, Vec<f64>),
-    Lu(SymbolicLu<usize>, Box<NumericLu<usize, f64>>),
+/// The symbolic factorisation, the values of `L L^T`, and those of the `L D L^T` of the
+/// stability indicator (allocated when first needed).
+struct Analysed {
+    symbolic: SymbolicCholesky<usize>,
+    llt: Vec<f64>,
+    ldlt: Vec<f64>,
 }
 
-/// A sparse direct solver with its symbolic factorisation and buffers kept.
+/// A sparse Cholesky solver with its symbolic factorisation and buffers kept.
 pub struct LinearSolver {
-    kind: LinearKind,
     par: Par,
-    symbolic: Symbolic,
+    analysed: Option<Analysed>,
     scratch: MemBuffer,
     factorized: bool,
 }
 
+impl Default for LinearSolver {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
 impl LinearSolver {
-    /// A solver of the given kind; [`LinearSolver::analyse`] chooses its threads.
-    pub fn new(kind: LinearKind) -> Self {
+    /// A solver with nothing analysed yet; [`LinearSolver::analyse`] chooses its threads.
+    pub fn new() -> Self {
         LinearSolver {
-            kind,
             par: Par::Seq,
-            symbolic: Symbolic::None,
+            analysed: None,
             scratch: MemBuffer::new(StackReq::EMPTY),
             factorized: false,
         }
     }
 
-    /// Which factorisation this is.
-    pub fn kind(&self) -> LinearKind {
-        self.kind
-    }
-
     /// Symbolic factorisation of a new pattern (fill-reducing ordering, elimination tree,
-    /// supernodes), with numeric storage and scratch sized for it. The Cholesky takes the
-    /// pool's threads from [`PARALLEL_UNKNOWNS`] unknowns on.
+    /// supernodes), with numeric storage and scratch sized for it, on the pool's threads from
+    /// [`PARALLEL_UNKNOWNS`] unknowns on.
     pub fn analyse(
         &mut self,
         pattern: &SymbolicSparseColMat<usize>,
@@ -80,40 +76,28 @@ impl LinearSolver {
     ) -> Result<(), NotFactorizable> {
         let start = Instant::now();
         let threads = rayon::current_num_threads();
-        let large = pattern.nrows() >= PARALLEL_UNKNOWNS;
-        self.par = if threads > 1 && large && self.kind == LinearKind::Cholesky {
+        self.par = if threads > 1 && pattern.nrows() >= PARALLEL_UNKNOWNS {
             Par::rayon(threads)
         } else {
             Par::Seq
         };
-        let fail = |e: faer::sparse::FaerError| NotFactorizable(format!("{e:?}"));
-        self.symbolic = match self.kind {
-            LinearKind::Cholesky => {
-                let s = factorize_symbolic_cholesky(
-                    pattern.as_ref(),
-                    Side::Lower,
-                    SymmetricOrdering::Amd,
-                    Default::default(),
-                )
-                .map_err(fail)?;
-                self.scratch = MemBuffer::new(StackReq::any_of(&[
-                    s.factorize_numeric_llt_scratch::<f64>(self.par, Default::default()),
-                    s.factorize_numeric_ldlt_scratch::<f64>(self.par, Default::default()),
-                    s.solve_in_place_scratch::<f64>(1, self.par),
-                ]));
-                let values = vec![0.0; s.len_val()];
-                Symbolic::Cholesky(s, values, Vec::new())
-            }
-            LinearKind::Lu => {
-                let s =
-                    factorize_symbolic_lu(pattern.as_ref(), Default::default()).map_err(fail)?;
-                self.scratch = MemBuffer::new(StackReq::any_of(&[
-                    s.factorize_numeric_lu_scratch::<f64>(self.par, Default::default()),
-                    s.solve_in_place_scratch::<f64>(1, self.par),
-                ]));
-                Symbolic::Lu(s, Box::new(NumericLu::new()))
-            }
-        };
+        let symbolic = factorize_symbolic_cholesky(
+            pattern.as_ref(),
+            Side::Lower,
+            SymmetricOrdering::Amd,
+            Default::default(),
+        )
+        .map_err(|e| NotFactorizable(format!("{e:?}")))?;
+        self.scratch = MemBuffer::new(StackReq::any_of(&[
+            symbolic.factorize_numeric_llt_scratch::<f64>(self.par, Default::default()),
+            symbolic.factorize_numeric_ldlt_scratch::<f64>(self.par, Default::default()),
+            symbolic.solve_in_place_scratch::<f64>(1, self.par),
+        ]));
+        self.analysed = Some(Analysed {
+            llt: vec![0.0; symbolic.len_val()],
+            ldlt: Vec::new(),
+            symbolic,
+        });
         self.factorized = false;
         stats.counters.symbolic_factorisations += 1;
         stats.timers.symbolic += secs(start);
@@ -128,26 +112,22 @@ impl LinearSolver {
     ) -> Result<(), NotFactorizable> {
         let start = Instant::now();
         self.factorized = false;
-        let stack = MemStack::new(&mut self.scratch);
-        let result = match &mut self.symbolic {
-            Symbolic::None => return Err(NotFactorizable("no symbolic factorisation".into())),
-            Symbolic::Cholesky(s, values, _) => s
-                .factorize_numeric_llt(
-                    values,
-                    matrix,
-                    Side::Lower,
-                    LltRegularization::default(),
-                    self.par,
-                    stack,
-                    Default::default(),
-                )
-                .map(|_| ())
-                .map_err(|e| NotFactorizable(format!("{e:?}"))),
-            Symbolic::Lu(s, numeric) => s
-                .factorize_numeric_lu(numeric, matrix, self.par, stack, Default::default())
-                .map(|_| ())
-                .map_err(|e| NotFactorizable(format!("{e:?}"))),
+        let Some(a) = &mut self.analysed else {
+            return Err(NotFactorizable("no symbolic factorisation".into()));
         };
+        let result = a
+            .symbolic
+            .factorize_numeric_llt(
+                &mut a.llt,
+                matrix,
+                Side::Lower,
+                LltRegularization::default(),
+                self.par,
+                MemStack::new(&mut self.scratch),
+                Default::default(),
+            )
+            .map(|_| ())
+            .map_err(|e| NotFactorizable(format!("{e:?}")));
         stats.counters.numeric_factorisations += 1;
         stats.timers.factorisation += secs(start);
         self.factorized = result.is_ok();
@@ -159,28 +139,18 @@ impl LinearSolver {
         self.factorized = false;
     }
 
-    /// Whether a factorisation is ready for solves.
-    pub fn is_factorized(&self) -> bool {
-        self.factorized
-    }
-
     /// Solve `A x = b` in place (`rhs` holds `b` on entry and `x` on return).
     pub fn solve_in_place(&mut self, rhs: &mut [f64], stats: &mut SolverStats) {
         let start = Instant::now();
         let n = rhs.len();
         let x = MatMut::from_column_major_slice_mut(rhs, n, 1);
-        let stack = MemStack::new(&mut self.scratch);
-        match &self.symbolic {
-            Symbolic::Cholesky(s, values, _) => {
-                LltRef::new(s, values).solve_in_place_with_conj(Conj::No, x, self.par, stack)
-            }
-            Symbolic::Lu(s, numeric) => LuRef::new_unchecked(s, numeric).solve_in_place_with_conj(
+        if let Some(a) = &self.analysed {
+            LltRef::new(&a.symbolic, &a.llt).solve_in_place_with_conj(
                 Conj::No,
                 x,
                 self.par,
-                stack,
-            ),
-            Symbolic::None => {}
+                MemStack::new(&mut self.scratch),
+            );
         }
         stats.counters.solves += 1;
         stats.timers.solve += secs(start);
@@ -189,7 +159,7 @@ impl LinearSolver {
     /// Pivots of an `L D L^T` of `matrix` (symmetric, in the analysed pattern, scaled so that
     /// its pivots are of order one) below `-threshold`. Pivots within `threshold` of zero
     /// (rattlers, free rotations: a singular direction) are taken as zero and not counted.
-    /// Only for the Cholesky kind; the `L L^T` kept for solves is left as it was.
+    /// The `L L^T` kept for solves is left as it was.
     pub fn negative_pivots(
         &mut self,
         matrix: SparseColMatRef<'_, usize, f64>,
@@ -197,8 +167,13 @@ impl LinearSolver {
         stats: &mut SolverStats,
     ) -> Result<usize, NotFactorizable> {
         let start = Instant::now();
-        let Symbolic::Cholesky(s, _, values) = &mut self.symbolic else {
-            return Err(NotFactorizable("no symmetric analysis".into()));
+        let Some(Analysed {
+            symbolic: s,
+            ldlt: values,
+            ..
+        }) = &mut self.analysed
+        else {
+            return Err(NotFactorizable("no symbolic factorisation".into()));
         };
         values.resize(s.len_val(), 0.0);
         // Pivots within the threshold are set to +-threshold, so that none is zero.
@@ -285,7 +260,7 @@ mod tests {
         let mut supernodal = false;
         for (n, shift) in [(6, 0.0), (6, 1.3), (6, 5.1), (250, 0.1), (250, 4.4)] {
             let (matrix, below) = shifted_laplacian(n, shift);
-            let mut solver = LinearSolver::new(LinearKind::Cholesky);
+            let mut solver = LinearSolver::new();
             solver
                 .analyse(&matrix.symbolic().to_owned().unwrap(), &mut stats)
                 .unwrap();
@@ -294,8 +269,8 @@ mod tests {
                 .unwrap();
             assert_eq!(counted, below, "grid {n} x {n} shifted by {shift}");
             assert!(below > 0 || shift == 0.0);
-            if let Symbolic::Cholesky(s, ..) = &solver.symbolic {
-                supernodal |= matches!(s.raw(), SymbolicCholeskyRaw::Supernodal(_));
+            if let Some(a) = &solver.analysed {
+                supernodal |= matches!(a.symbolic.raw(), SymbolicCholeskyRaw::Supernodal(_));
             }
         }
         assert!(supernodal, "the supernodal path was taken");
@@ -306,32 +281,28 @@ mod tests {
         let n = 320; // 102,400 unknowns, above PARALLEL_UNKNOWNS
         let (matrix, _) = shifted_laplacian(n, 0.0);
         let pattern = matrix.symbolic().to_owned().unwrap();
-        let solve = |kind, threads| {
+        let solve = |threads| {
             let pool = rayon::ThreadPoolBuilder::new()
                 .num_threads(threads)
                 .build()
                 .unwrap();
             pool.install(|| {
                 let mut stats = SolverStats::default();
-                let mut solver = LinearSolver::new(kind);
+                let mut solver = LinearSolver::new();
                 solver.analyse(&pattern, &mut stats).unwrap();
-                let parallel = threads > 1 && kind == LinearKind::Cholesky;
-                assert_eq!(matches!(solver.par, Par::Rayon(_)), parallel);
+                assert_eq!(matches!(solver.par, Par::Rayon(_)), threads > 1);
                 solver.factorize(matrix.as_ref(), &mut stats).unwrap();
                 let mut x: Vec<f64> = (0..n * n).map(|i| (i % 7) as f64 - 3.0).collect();
                 solver.solve_in_place(&mut x, &mut stats);
                 x
             })
         };
-        for kind in [LinearKind::Cholesky, LinearKind::Lu] {
-            let one = solve(kind, 1);
-            let two = solve(kind, 2);
-            assert!(one.iter().all(|x| x.is_finite()));
-            let differ = one
-                .iter()
-                .zip(&two)
-                .filter(|(a, b)| a.to_bits() != b.to_bits());
-            assert_eq!(differ.count(), 0, "{kind:?}");
-        }
+        let (one, two) = (solve(1), solve(2));
+        assert!(one.iter().all(|x| x.is_finite()));
+        let differ = one
+            .iter()
+            .zip(&two)
+            .filter(|(a, b)| a.to_bits() != b.to_bits());
+        assert_eq!(differ.count(), 0);
     }
 }

@@ -9,7 +9,7 @@ pub mod minimise;
 pub mod relaxation;
 pub mod stats;
 
-pub use config::{LinearKind, SolverConfig, Strategy};
+pub use config::{SolverConfig, Strategy};
 pub use linear::LinearSolver;
 pub use minimise::{MinimiseOutcome, MinimiseSettings, Potential};
 pub use stats::{Counters, SolverStats, StageTimers};
