@@ -503,7 +503,7 @@ fn log_line(sim: &Simulation, r: &IncrementReport) -> String {
     let tail = &sim.last_residuals[sim.last_residuals.len().saturating_sub(5)..];
     let residuals: Vec<String> = tail.iter().map(|v| format!("{v:.1e}")).collect();
     format!(
-        "inc {:>5} stage {}: {} it, {} pass, {} cuts, {} settled, residuals [{}], {} negative \
+        "inc {:>5} stage {}: {} it, {} pass, {} cuts, residuals [{}], {} negative \
          pivots; contacts {} \
          (+{} -{}), broken {}; walls [{}] Pa; macro xx {:.4e} yy {:.4e} xy {:.2e} Pa; \
          energy: work {:.4e} J, imbalance {:.1e}",
@@ -512,7 +512,6 @@ fn log_line(sim: &Simulation, r: &IncrementReport) -> String {
         r.newton_iterations,
         r.topology_passes,
         r.cuts,
-        r.settled,
         residuals.join(" "),
         r.negative_pivots
             .map_or_else(|| "uncounted".to_string(), |n| n.to_string()),
@@ -535,10 +534,10 @@ fn summary(sim: &Simulation) -> String {
     let c = &sim.stats.counters;
     format!(
         "time [s]: detection {:.3}, return map {:.3}, assembly {:.3}, symbolic {:.3}, \
-         factorisation {:.3}, solve {:.3}, topology {:.3}, settling {:.3}, output {:.3}\n\
+         factorisation {:.3}, solve {:.3}, topology {:.3}, output {:.3}\n\
          counts: {} increments, {} {}, {} symbolic and {} numeric \
-         factorisations ({} steps on a reused one), {} solves, {} topology passes, \
-         {} friends rebuilds, contacts +{} -{}, {} bonds broken, {} cuts, {} settling steps",
+         factorisations, {} solves, {} passes, \
+         {} friends rebuilds, contacts +{} -{}, {} bonds broken, {} cuts",
         t.detection,
         t.return_map,
         t.assembly,
@@ -546,7 +545,6 @@ fn summary(sim: &Simulation) -> String {
         t.factorisation,
         t.solve,
         t.topology,
-        t.settling,
         t.output,
         c.increments,
         c.newton_iterations,
@@ -556,15 +554,13 @@ fn summary(sim: &Simulation) -> String {
         },
         c.symbolic_factorisations,
         c.numeric_factorisations,
-        c.factorisations_reused,
         c.solves,
         c.topology_passes,
         c.friends_rebuilds,
         c.contacts_made,
         c.contacts_lost,
         c.bonds_broken,
-        c.cuts,
-        c.settling_steps
+        c.cuts
     )
 }
 

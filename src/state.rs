@@ -78,9 +78,11 @@ pub struct IncrementReport {
     pub measurements: Measurements,
     /// Final relative residual `|R|_inf / F_ref`.
     pub residual: f64,
-    /// Newton iterations (sweeps of the relaxation) over all topology passes and sub-steps.
+    /// Newton iterations of the minimisation (sweeps of the relaxation) over all passes and
+    /// sub-steps.
     pub newton_iterations: usize,
-    /// Topology passes.
+    /// Passes: the minimisation's end where a step reaches the edge of the friends lists, the
+    /// relaxation's where the topology is updated.
     pub topology_passes: usize,
     /// Times the increment was halved.
     pub cuts: u32,
@@ -90,12 +92,6 @@ pub struct IncrementReport {
     pub contacts_lost: usize,
     /// Bonds broken in this increment.
     pub bonds_broken: usize,
-    /// Contacts that opened in tension after one topology pass and were made again in a
-    /// later one: chatter, held off by letting such a contact push but not pull for the rest
-    /// of the increment.
-    pub contacts_remade: usize,
-    /// Times a step of it was settled by explicit dynamics (no equilibrium nearby).
-    pub settled: usize,
     /// The stability indicator: negative pivots of an `L D L^T` of the symmetric tangent at
     /// the converged state, i.e. its negative eigenvalues (`None` when not counted). Zero in
     /// a stable equilibrium; positive where a mode of the sample softens (the onset of

@@ -561,7 +561,9 @@ pub(crate) fn decode_pair(a: i64, b: i64, grains: usize, walls: usize) -> R<Pair
     Ok(Pair { a, b })
 }
 
-fn timers_mut(t: &mut StageTimers) -> [(&'static str, &mut f64); 9] {
+/// The timers of `/summary`, by name. Files from before settling was removed have
+/// `time_settling` too, which is not read.
+fn timers_mut(t: &mut StageTimers) -> [(&'static str, &mut f64); 8] {
     [
         ("detection", &mut t.detection),
         ("return_map", &mut t.return_map),
@@ -571,17 +573,17 @@ fn timers_mut(t: &mut StageTimers) -> [(&'static str, &mut f64); 9] {
         ("solve", &mut t.solve),
         ("topology", &mut t.topology),
         ("output", &mut t.output),
-        ("settling", &mut t.settling),
     ]
 }
 
-fn counters_mut(c: &mut Counters) -> [(&'static str, &mut usize); 13] {
+/// The counters of `/summary`, by name. Files from before the Newton solver was removed have
+/// `factorisations_reused` and `settling_steps` too, which are not read.
+fn counters_mut(c: &mut Counters) -> [(&'static str, &mut usize); 11] {
     [
         ("increments", &mut c.increments),
         ("newton_iterations", &mut c.newton_iterations),
         ("symbolic_factorisations", &mut c.symbolic_factorisations),
         ("numeric_factorisations", &mut c.numeric_factorisations),
-        ("factorisations_reused", &mut c.factorisations_reused),
         ("solves", &mut c.solves),
         ("topology_passes", &mut c.topology_passes),
         ("friends_rebuilds", &mut c.friends_rebuilds),
@@ -589,7 +591,6 @@ fn counters_mut(c: &mut Counters) -> [(&'static str, &mut usize); 13] {
         ("contacts_lost", &mut c.contacts_lost),
         ("bonds_broken", &mut c.bonds_broken),
         ("cuts", &mut c.cuts),
-        ("settling_steps", &mut c.settling_steps),
     ]
 }
 

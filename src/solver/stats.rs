@@ -17,12 +17,10 @@ pub struct StageTimers {
     pub factorisation: f64,
     /// Triangular solves.
     pub solve: f64,
-    /// Topology passes: contacts made, lost, bonds broken.
+    /// Contacts made, lost and engaged, bonds broken.
     pub topology: f64,
     /// Writing results.
     pub output: f64,
-    /// Explicit damped dynamics settling increments that had no equilibrium nearby.
-    pub settling: f64,
 }
 
 /// Counts of the work done.
@@ -30,18 +28,15 @@ pub struct StageTimers {
 pub struct Counters {
     /// Load increments converged.
     pub increments: usize,
-    /// Newton iterations, or sweeps of the relaxation.
+    /// Newton iterations of the minimisation, or sweeps of the relaxation.
     pub newton_iterations: usize,
     /// Symbolic factorisations (one per pattern).
     pub symbolic_factorisations: usize,
     /// Numeric factorisations.
     pub numeric_factorisations: usize,
-    /// Steps solved with a kept factorisation instead of a new one: a linear scene's chord
-    /// steps with its Cholesky, and GMRES's steps with its kept LU.
-    pub factorisations_reused: usize,
     /// Linear solves.
     pub solves: usize,
-    /// Topology passes.
+    /// Passes (see [`crate::state::IncrementReport::topology_passes`]).
     pub topology_passes: usize,
     /// Friends-list rebuilds after the first lists.
     pub friends_rebuilds: usize,
@@ -53,8 +48,6 @@ pub struct Counters {
     pub bonds_broken: usize,
     /// Increment halvings.
     pub cuts: usize,
-    /// Explicit steps of settling.
-    pub settling_steps: usize,
 }
 
 /// Timers and counters of a run.
