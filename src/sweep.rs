@@ -6,7 +6,7 @@
 //!
 //! ```toml
 //! scene = "biaxial-sand.toml"
-//! solver = "../solvers/newton-lu.toml"
+//! solver = "../solvers/reference.toml"
 //! label = "sigma_3"
 //! unit = "Pa"
 //! keys = ["stages.0.stress.left", "stages.0.stress.right", "stages.0.stress.top"]

@@ -66,7 +66,7 @@ pub struct Contact {
     pub shear_displacement0: f64,
     /// Shear displacement of the increment already made before the contact was (re)made.
     pub shear_offset: f64,
-    /// The current response (trial during Newton, converged after it).
+    /// The current response (trial during a solve, converged after it).
     pub response: Response,
     /// The current overlap `n` (m).
     pub overlap: f64,
