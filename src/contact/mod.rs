@@ -219,16 +219,6 @@ impl ContactSet {
         glued
     }
 
-    /// Mean overlap of the touching contacts (m), the length scale of contact forces; `None`
-    /// when none touches.
-    pub fn mean_overlap(contacts: &[Contact]) -> Option<f64> {
-        let (sum, touching) = contacts
-            .iter()
-            .filter(|c| c.overlap > 0.0)
-            .fold((0.0, 0usize), |(s, n), c| (s + c.overlap, n + 1));
-        (touching > 0).then(|| sum / touching as f64)
-    }
-
     /// Mean magnitude of the normal force (N) (the force scale of the convergence test).
     pub fn mean_normal_force(&self) -> f64 {
         if self.contacts.is_empty() {

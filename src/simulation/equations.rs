@@ -173,8 +173,8 @@ pub struct IncrementEquations<'a> {
     pub membranes: &'a [Membrane],
     /// Each membrane's chain: found anew at a refreeze, as the grains roll.
     pub chains: &'a mut Vec<Chain>,
-    /// Whether the chains stay as they are for the rest of the increment: a grain on the
-    /// membrane probe's line can flip them from pass to pass.
+    /// Whether the chains stay as they are from now on: a grain on the membrane probe's line
+    /// can flip them from refreeze to refreeze (see [`super::CHAIN_CHANGES`]).
     pub chains_held: bool,
     /// The grains the membranes may lie on ([`membrane_carriers`]).
     pub carriers: &'a [bool],

@@ -70,9 +70,6 @@ pub struct Simulation {
     /// Pairs whose contact the relaxation lost in this increment, sorted: made again, they
     /// push but do not pull (see [`IncrementEquations::reopened`]).
     reopened: Vec<Pair>,
-    /// Whether the membranes' chains are held as they are for the rest of this increment
-    /// (see [`CHAIN_CHANGES`]).
-    chains_held: bool,
     /// The stability indicator's system with every wall free, kept while the pattern it was
     /// made from is the current one and it couples the membranes' chains.
     freed: Option<stability::FreedSystem>,
@@ -151,7 +148,6 @@ impl Simulation {
             carriers,
             anchors: anchors(&state.grains, &state.walls, &state.contacts.contacts),
             reopened: Vec::new(),
-            chains_held: false,
             freed: None,
             energy: EnergyBalance::default(),
             values: vec![0.0; pattern.nnz()],
@@ -355,11 +351,10 @@ impl Simulation {
         }
     }
 
-    /// What every solve of a step starts from: no contact reopened yet, the membranes' chains
-    /// free to change, and the carriers of the committed state.
+    /// What every solve of a step starts from: no contact reopened yet, and the carriers of
+    /// the committed state.
     fn start_step(&mut self) {
         self.reopened.clear();
-        self.chains_held = false;
         self.carriers = membrane_carriers(&self.state.grains, &self.state.contacts.contacts);
     }
 
@@ -388,7 +383,7 @@ impl Simulation {
             step,
             membranes: &self.state.membranes,
             chains: &mut self.chains,
-            chains_held: self.chains_held,
+            chains_held: false,
             carriers: &self.carriers,
             anchors: &self.anchors,
             reopened: &self.reopened,

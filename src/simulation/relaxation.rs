@@ -233,9 +233,7 @@ impl Simulation {
         self.state.contacts.contacts = merged;
         self.index_pairs()?;
         // Membranes: on the grains that are outermost now.
-        if !self.chains_held {
-            change.chains = self.refresh_chains(true)?;
-        }
+        change.chains = self.refresh_chains(true)?;
         self.stats.counters.contacts_made += change.made;
         self.stats.counters.contacts_lost += change.lost;
         self.stats.counters.bonds_broken += change.broken;

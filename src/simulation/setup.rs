@@ -66,11 +66,6 @@ impl MaterialModel {
         }
     }
 
-    /// Whether the contact law is linear (a tangent that hardly changes between increments).
-    pub fn is_linear(&self) -> bool {
-        self.law == LawKind::Linear
-    }
-
     /// A typical normal stiffness (N/m): `k_n`, or the Hertz tangent at an overlap of a
     /// thousandth of the radius.
     pub fn stiffness_hint(&self, r_mean: f64) -> f64 {
