@@ -60,16 +60,17 @@ fn assert_whole(path: &Path) -> Vec<usize> {
     increments
 }
 
+/// With the minimisation, whose increment starts from the last one's displacements (kept in
+/// the state for that).
 #[test]
 fn a_run_killed_at_random_moments_resumes_to_the_uninterrupted_state() {
     killed_and_resumed(&[]);
 }
 
-/// The same with the minimisation, whose increment starts from the last one's displacements
-/// (kept in the state for that).
+/// The same with the relaxation, whose increments are taken as they stand after their sweeps.
 #[test]
-fn a_minimised_run_killed_at_random_moments_resumes_to_the_uninterrupted_state() {
-    killed_and_resumed(&["--solver", "solvers/minimise.toml"]);
+fn a_relaxed_run_killed_at_random_moments_resumes_to_the_uninterrupted_state() {
+    killed_and_resumed(&["--solver", "solvers/relaxation.toml"]);
 }
 
 /// Kill the run with settings `solver` a few times, resume it after each kill, and compare
