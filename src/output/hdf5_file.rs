@@ -708,7 +708,7 @@ pub(crate) fn open_existing(path: &Path) -> Result<File, Error> {
     let file = File::open(path).map_err(|e| {
         let e = e.to_string();
         let hint = if e.contains("unable to lock") {
-            " (is a run still writing it? HDF5_USE_FILE_LOCKING=FALSE reads it anyway)"
+            " (was a run swapping in its next version? try again)"
         } else {
             ""
         };
