@@ -373,6 +373,42 @@ fn resume_takes_the_last_complete_increment() {
     assert_eq!(&read_state(&path, 2).unwrap().1, &states[1]);
 }
 
+/// A reader that keeps the file open keeps its version while the run writes on: the run does
+/// not write to a file held open (HDF5 will not open it for writing), it makes a new twin.
+#[test]
+fn a_reader_keeps_its_version_while_the_run_writes_on() {
+    let _serial = serial();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("run.h5");
+    let states: Vec<State> = (1..=5).map(state).collect();
+    let mut file = ResultFile::create(&path, &header(&states[0])).unwrap();
+    for s in &states[..2] {
+        file.write_increment(s, &report(s), &stats(s.increment))
+            .unwrap();
+    }
+    let reader = hdf5::File::open(&path).unwrap();
+    let mut held = std::fs::File::open(&path).unwrap();
+    let before = std::fs::read(&path).unwrap();
+    for s in &states[2..] {
+        file.write_increment(s, &report(s), &stats(s.increment))
+            .unwrap();
+    }
+    let mut after = Vec::new();
+    std::io::Read::read_to_end(&mut held, &mut after).unwrap();
+    assert!(after == before, "the file the reader holds was written to");
+    assert_eq!(reader.group("increments").unwrap().len(), 2);
+    drop(reader);
+    drop(file);
+    assert_eq!(read_increments(&path).unwrap(), vec![1, 2, 3, 4, 5]);
+    for s in &states {
+        assert_eq!(&read_state(&path, s.increment).unwrap().1, s);
+    }
+    assert!(
+        !dir.path().join("run.h5.writing").exists(),
+        "the twin outlived the run"
+    );
+}
+
 /// Rewrite every `/history` dataset of `path` as files written before it was stored plain
 /// have it: chunked, shuffled and deflated.
 fn compress_history(path: &Path) {

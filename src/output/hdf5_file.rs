@@ -311,10 +311,14 @@ impl ResultFile {
         let value = write(&file).map_err(blame)?;
         close(file, &twin)?;
         if swap(&twin, &self.path)? {
-            self.twin = Twin::CatchingUp(std::thread::spawn(move || {
+            let catch_up = std::thread::Builder::new().spawn(move || {
                 File::open_rw(&twin)
                     .is_ok_and(|file| write(&file).is_ok() && close(file, &twin).is_ok())
-            }));
+            });
+            // No thread to be had: the next change starts from a copy.
+            if let Ok(done) = catch_up {
+                self.twin = Twin::CatchingUp(done);
+            }
         }
         Ok(value)
     }
