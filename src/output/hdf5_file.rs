@@ -5,10 +5,10 @@
 //! its metadata in place and reuses space it freed, so a process killed in the middle of a
 //! write, even one followed by a flush, can leave a file that no longer opens or whose
 //! compressed chunks no longer inflate. So the file is never written where it lies. Beside it
-//! lies its twin (`NAME.h5.writing`), a second copy of the same file: every change (the
-//! header, each increment, the summary, the tidying on resume) is made to the twin, which is
-//! flushed, closed and swapped with the file in one atomic rename (`renameat2`'s
-//! `RENAME_EXCHANGE`). The old file, now the twin, is then given the same change on another
+//! lies its twin (`NAME.h5.writing`), a second copy of the same file: every change (each
+//! increment, the summary, the tidying on resume) is made to the twin, which is flushed,
+//! closed and swapped with the file in one atomic rename (`renameat2`'s `RENAME_EXCHANGE`).
+//! A new file is written whole beside it and renamed over it. The old file, now the twin, is then given the same change on another
 //! thread while the run goes on, so the two are equal again by the next change. At every
 //! moment `NAME.h5` is the file as it was after one whole change, and no change copies the
 //! file (copying the whole file at every increment made writing one cost as much as all
