@@ -233,6 +233,7 @@ pub fn prepare(
         control: Vec::new(),
         until_failure: false,
         failure_drop: None,
+        breakouts: false,
     };
     let state = State::fresh(grains, walls, contacts, Vec::new());
     // The global solver, whatever strategy the settings name: 20 sweeps would leave it

@@ -99,7 +99,7 @@ impl Simulation {
 
     /// The unknowns, membrane carriers and chains, anchors, friends lists and pattern of the
     /// committed state, made anew.
-    fn rebuild_workspace(&mut self) -> Result<(), NumericError> {
+    pub(super) fn rebuild_workspace(&mut self) -> Result<(), NumericError> {
         let state = &self.state;
         self.dofs = super::dof_map(state, self.material.fixed_rotations);
         self.carriers = membrane_carriers(&state.grains, &state.contacts.contacts);

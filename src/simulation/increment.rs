@@ -21,6 +21,19 @@ const MAX_PASSES: usize = 200;
 /// that finds no equilibrium near is halved until it changes the load by at most this much.
 const BRACKET: f64 = 0.005;
 
+/// Halvings of one increment, at most, in bracketing a limit load. A limit load of zero (a
+/// grain with nothing to hold it) is never bracketed as a share of the load: it is reported
+/// with the share its last step changed the load by.
+const BRACKET_CUTS: u32 = 16;
+
+/// Most of the sample's grains a cluster that breaks out may hold: more is the sample failing
+/// as a whole.
+const BREAKOUT_SHARE: f64 = 0.1;
+
+/// Share of its radius a grain moved in a descent that found no equilibrium near by which it
+/// counts as carried with the grains that ran away.
+const MECHANISM_MOVE: f64 = 1.0;
+
 /// Which part of its increment a (sub-)step is: where it starts and how much of the
 /// increment it is, both as shares of the increment.
 #[derive(Debug, Clone, Copy)]
@@ -35,10 +48,10 @@ impl Simulation {
     /// step's equilibrium is near the last one only for a small enough step, and the halves
     /// follow the path the load takes, which decides between the equilibria a large step
     /// can jump to (a grain wedged between two that close on it sticks from first touch).
-    /// A stall is halved down to `max_cuts` times; no equilibrium near is halved until the
-    /// step changes the load by at most [`BRACKET`], which brackets the limit load. The
-    /// halves commit as they converge, so a failure leaves the state at the highest load
-    /// found in equilibrium.
+    /// A stall is halved down to `max_cuts` times, and if it still stalls the increment is
+    /// left unsolved. No equilibrium near is halved until the step changes the load by at
+    /// most [`BRACKET`], which brackets the limit load: the halves commit as they converge, so
+    /// the state is left at the highest load found in equilibrium.
     pub(super) fn minimise_step(
         &mut self,
         step: &LoadStep,
@@ -48,7 +61,14 @@ impl Simulation {
             from: 0.0,
             share: 1.0,
         };
-        self.follow_path(step, whole, 0, report)
+        let start = self.state.clone();
+        let result = self.follow_path(step, whole, 0, report);
+        if let Err(NumericError::NotConverged { .. }) = result {
+            // The solver gave up: the increment is not solved, whatever halves converged.
+            self.state = start;
+            self.rebuild_workspace()?;
+        }
+        result
     }
 
     /// Solve `step`, part `part` of the increment, at `depth` halvings; halve it where it
@@ -66,9 +86,19 @@ impl Simulation {
         };
         let halve = match error {
             NumericError::NotConverged { .. } => depth < self.config.max_cuts,
-            NumericError::NoEquilibrium { .. } => self.load_change(step, part) > BRACKET,
+            NumericError::NoEquilibrium { .. } => {
+                depth < BRACKET_CUTS && self.load_change(step, part) > BRACKET
+            }
             _ => false,
         };
+        if let NumericError::NoEquilibrium { grains, .. } = &error {
+            if !halve && self.breaks_out(grains) {
+                // Bracketed: the cluster breaks out at this load. Out with it, and on.
+                let breakout = self.take_out(grains)?;
+                report.bonds_broken += breakout.bonds_broken;
+                return self.follow_path(step, part, depth, report);
+            }
+        }
         if !halve {
             return Err(match error {
                 NumericError::NotConverged {
@@ -108,6 +138,48 @@ impl Simulation {
             share,
         };
         self.follow_path(&second, rest, depth + 1, report)
+    }
+
+    /// Whether `cluster`, which no equilibrium near holds, breaks out of the sample in a stage
+    /// that takes breakouts out: at most [`BREAKOUT_SHARE`] of the grains in the sample. A
+    /// larger one is the sample failing as a whole.
+    fn breaks_out(&self, cluster: &[usize]) -> bool {
+        let in_sample = self.state.grains.in_sample().count();
+        self.stages[self.state.stage].breakouts
+            && !cluster.is_empty()
+            && cluster.len() as f64 <= BREAKOUT_SHARE * in_sample as f64
+    }
+
+    /// The grains the descent that found no equilibrium near carries with `runaway`: those
+    /// moved by more than [`MECHANISM_MOVE`] of their radius in it, joined to a runaway grain
+    /// through contacts that touch or are bonded where it stopped. In increasing order.
+    fn mechanism(&self, runaway: &[usize]) -> Vec<usize> {
+        let grains = &self.state.grains;
+        let moved = |g: usize| {
+            let d = self.q.displacement[g];
+            d[0].hypot(d[1]) > MECHANISM_MOVE * grains.radius[g]
+        };
+        let mut neighbours = vec![Vec::new(); grains.len()];
+        for c in (self.state.contacts.contacts.iter()).filter(|c| c.bonded || c.overlap > 0.0) {
+            if let crate::geometry::Side::Grain(a) = c.pair.a {
+                neighbours[a].push(c.pair.b);
+                neighbours[c.pair.b].push(a);
+            }
+        }
+        let mut inside = vec![false; grains.len()];
+        let mut queue: Vec<usize> = runaway.to_vec();
+        for &g in runaway {
+            inside[g] = true;
+        }
+        while let Some(g) = queue.pop() {
+            for &h in &neighbours[g] {
+                if !inside[h] && moved(h) {
+                    inside[h] = true;
+                    queue.push(h);
+                }
+            }
+        }
+        (0..grains.len()).filter(|&g| inside[g]).collect()
     }
 
     /// How much `step`, part `part` of the increment, changes the load, as a share of the
@@ -299,7 +371,7 @@ impl Simulation {
                 return Err(NumericError::NoEquilibrium {
                     increment: self.state.increment + 1,
                     residual: outcome.residual,
-                    grains: outcome.runaway,
+                    grains: self.mechanism(&outcome.runaway),
                     load_change: 0.0,
                 });
             }

@@ -52,12 +52,15 @@ impl IncrementEquations<'_> {
             // sticks until the next refreeze: on the load path its shear and normal force grow
             // together from zero at first touch, and a limit lagged from where it carried
             // nothing would let it slide without friction (a grain that two neighbours close
-            // on would slide out of the wedge they make instead of being held in it).
-            let first_touch = c.start_overlap < 0.0 && !c.bonded && !lag.touched && n > 0.0;
+            // on would slide out of the wedge they make instead of being held in it). Only
+            // the first touch: a pair that opens and closes again on the way has a limit of
+            // its own by then.
+            let first_touch = c.start_overlap < 0.0 && !c.bonded && !lag.made && n > 0.0;
+            lag.made |= first_touch;
             lag.limit = if c.bonded || c.params.friction.is_infinite() || first_touch {
                 f64::INFINITY
             } else {
-                c.params.friction * normal_force.max(0.0)
+                lag.refrozen_limit(c.params.friction * normal_force.max(0.0))
             };
             // Taken once, where the contact is first found touching: taken anew at every
             // refreeze it would follow the iterate, and the lag would converge only linearly.
