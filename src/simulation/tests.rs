@@ -74,9 +74,14 @@ fn consistent_tangent_error(scene: &crate::scene::Scene) -> f64 {
             .unwrap();
     }
     eq.chains_held = true;
+    // Each point refreezes from the lag at `u`: a refreeze relaxes a limit whose change turns
+    // back (`Lag::refrozen_limit`), so from the lag the other point left, the limit there
+    // would not be its `f N`.
+    let at_u = eq.contacts.clone();
     let h = 1e-7;
     let mut scratch = vec![0.0; pattern.nnz()];
     let mut at = |sign: f64| {
+        eq.contacts.clone_from(&at_u);
         let w: Vec<f64> = u.iter().zip(&v).map(|(a, b)| a + sign * h * b).collect();
         let mut out = vec![0.0; n];
         eq.consistent_tangent(&w, &mut out, &mut scratch).unwrap();
