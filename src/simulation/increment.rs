@@ -40,6 +40,20 @@ const MECHANISM_MOVE: f64 = 1.0;
 struct Part {
     from: f64,
     share: f64,
+    /// Halvings that made it.
+    depth: u32,
+    /// Of those, halvings of a step whose minimisation did not converge.
+    stalls: u32,
+}
+
+/// What solving a (sub-)step found, short of an error.
+enum Solved {
+    /// Its equilibrium, with the bonds broken in it, committed.
+    Committed,
+    /// Its first equilibrium has a bond past its strength, and the step is wider than
+    /// [`BRACKET`]: not committed, so that its halves find the load at which the bond
+    /// breaks.
+    BondPastStrength,
 }
 
 impl Simulation {
@@ -51,7 +65,9 @@ impl Simulation {
     /// A stall is halved down to `max_cuts` times, and if it still stalls the increment is
     /// left unsolved. No equilibrium near is halved until the step changes the load by at
     /// most [`BRACKET`], which brackets the limit load: the halves commit as they converge, so
-    /// the state is left at the highest load found in equilibrium.
+    /// the state is left at the highest load found in equilibrium. A step whose equilibrium
+    /// has a bond past its strength is halved the same way, so the bond breaks within
+    /// [`BRACKET`] of the load that breaks it.
     pub(super) fn minimise_step(
         &mut self,
         step: &LoadStep,
@@ -60,9 +76,11 @@ impl Simulation {
         let whole = Part {
             from: 0.0,
             share: 1.0,
+            depth: 0,
+            stalls: 0,
         };
         let start = self.state.clone();
-        let result = self.follow_path(step, whole, 0, report);
+        let result = self.follow_path(step, whole, report);
         if let Err(NumericError::NotConverged { .. }) = result {
             // The solver gave up: the increment is not solved, whatever halves converged.
             self.state = start;
@@ -71,24 +89,24 @@ impl Simulation {
         result
     }
 
-    /// Solve `step`, part `part` of the increment, at `depth` halvings; halve it where it
-    /// does not converge (see [`Simulation::minimise_step`]).
+    /// Solve `step`, part `part` of the increment; halve it where it does not converge, finds
+    /// no equilibrium near or breaks a bond while wider than [`BRACKET`] (see
+    /// [`Simulation::minimise_step`]).
     fn follow_path(
         &mut self,
         step: &LoadStep,
         part: Part,
-        depth: u32,
         report: &mut IncrementReport,
     ) -> Result<(), NumericError> {
-        let error = match self.solve_part(step, part.share, report) {
-            Ok(()) => return Ok(()),
+        let wide = part.depth < BRACKET_CUTS && self.load_change(step, part) > BRACKET;
+        let error = match self.solve_part(step, part.share, wide, report) {
+            Ok(Solved::Committed) => return Ok(()),
+            Ok(Solved::BondPastStrength) => return self.follow_halves(step, part, false, report),
             Err(e) => e,
         };
         let halve = match error {
-            NumericError::NotConverged { .. } => depth < self.config.max_cuts,
-            NumericError::NoEquilibrium { .. } => {
-                depth < BRACKET_CUTS && self.load_change(step, part) > BRACKET
-            }
+            NumericError::NotConverged { .. } => part.stalls < self.config.max_cuts,
+            NumericError::NoEquilibrium { .. } => wide,
             _ => false,
         };
         if let NumericError::NoEquilibrium { grains, .. } = &error {
@@ -96,7 +114,7 @@ impl Simulation {
                 // Bracketed: the cluster breaks out at this load. Out with it, and on.
                 let breakout = self.take_out(grains)?;
                 report.bonds_broken += breakout.bonds_broken;
-                return self.follow_path(step, part, depth, report);
+                return self.follow_path(step, part, report);
             }
         }
         if !halve {
@@ -110,7 +128,7 @@ impl Simulation {
                     increment,
                     residual,
                     worst_grain,
-                    cuts: depth,
+                    cuts: part.depth,
                 },
                 NumericError::NoEquilibrium {
                     increment,
@@ -126,18 +144,36 @@ impl Simulation {
                 other => other,
             });
         }
+        let stalled = matches!(error, NumericError::NotConverged { .. });
+        self.follow_halves(step, part, stalled, report)
+    }
+
+    /// Follow `step`, part `part` of the increment, in two halves; `stalled` when it is
+    /// halved because its minimisation did not converge.
+    fn follow_halves(
+        &mut self,
+        step: &LoadStep,
+        part: Part,
+        stalled: bool,
+        report: &mut IncrementReport,
+    ) -> Result<(), NumericError> {
         report.cuts += 1;
         self.stats.counters.cuts += 1;
         let stress: Vec<f64> = self.state.walls.walls.iter().map(|w| w.stress).collect();
         let pressure: Vec<f64> = self.state.membranes.iter().map(|m| m.pressure).collect();
         let (first, second) = step.halves(&stress, &pressure);
-        let share = 0.5 * part.share;
-        self.follow_path(&first, Part { share, ..part }, depth + 1, report)?;
-        let rest = Part {
-            from: part.from + share,
-            share,
+        let first_part = Part {
+            from: part.from,
+            share: 0.5 * part.share,
+            depth: part.depth + 1,
+            stalls: part.stalls + u32::from(stalled),
         };
-        self.follow_path(&second, rest, depth + 1, report)
+        self.follow_path(&first, first_part, report)?;
+        let rest = Part {
+            from: part.from + first_part.share,
+            ..first_part
+        };
+        self.follow_path(&second, rest, report)
     }
 
     /// Whether `cluster`, which no equilibrium near holds, breaks out of the sample in a stage
@@ -213,14 +249,21 @@ impl Simulation {
         &mut self,
         step: &LoadStep,
         share: f64,
+        wide: bool,
         report: &mut IncrementReport,
-    ) -> Result<(), NumericError> {
+    ) -> Result<Solved, NumericError> {
         let committed = self.state.contacts.clone();
         let energy = self.energy;
         let made_before: Vec<_> = committed.contacts.iter().map(|c| c.pair).collect();
-        let result = self.solve_with_breaks(step, share, report);
+        let result = self.solve_with_breaks(step, share, wide, report);
         match result {
-            Ok(u) => {
+            Ok(None) => {
+                self.state.contacts = committed;
+                self.energy = energy;
+                self.restore_friends()?;
+                Ok(Solved::BondPastStrength)
+            }
+            Ok(Some(u)) => {
                 report.negative_pivots = self.negative_pivots(step, &u);
                 let contacts = &mut self.state.contacts.contacts;
                 contacts.retain(|c| c.bonded || c.overlap > 0.0);
@@ -237,7 +280,7 @@ impl Simulation {
                 self.index_pairs()?;
                 // The predictor is kept per whole increment: a half step predicts half of it.
                 self.state.last_step = u.iter().map(|v| v / share).collect();
-                Ok(())
+                Ok(Solved::Committed)
             }
             Err(e) => {
                 self.state.contacts = committed;
@@ -248,25 +291,39 @@ impl Simulation {
         }
     }
 
-    /// The increment's equilibrium from the predictor, then, while a bond is past its
-    /// strength, the most overloaded one broken and the equilibrium found anew from there.
+    /// The step's equilibrium from the predictor, then, while a bond is past its strength,
+    /// the most overloaded one broken and the equilibrium found anew from there: a cascade
+    /// at the step's load. Nothing (and nothing broken) where the step is `wide` and its
+    /// first equilibrium has a bond past its strength: the bond is broken at the load that
+    /// breaks it, found within [`BRACKET`], not at the end of a step past it, so that
+    /// failure loads do not depend on the increment size (method note, step 5).
     fn solve_with_breaks(
         &mut self,
         step: &LoadStep,
         share: f64,
+        wide: bool,
         report: &mut IncrementReport,
-    ) -> Result<Vec<f64>, NumericError> {
+    ) -> Result<Option<Vec<f64>>, NumericError> {
         self.start_step();
         self.start_newton()?;
         self.engage_pairs();
         let mut u = self.start_point(step, share)?;
-        loop {
-            self.minimise(step, &mut u, report)?;
-            if !self.break_most_overloaded_bond() {
-                return Ok(u);
-            }
-            report.bonds_broken += 1;
+        self.minimise(step, &mut u, report)?;
+        if wide
+            && self
+                .state
+                .contacts
+                .contacts
+                .iter()
+                .any(|c| c.bond_overload().is_some())
+        {
+            return Ok(None);
         }
+        while self.break_most_overloaded_bond() {
+            report.bonds_broken += 1;
+            self.minimise(step, &mut u, report)?;
+        }
+        Ok(Some(u))
     }
 
     /// Where the minimisation starts, with the friends lists reaching it: the predictor where

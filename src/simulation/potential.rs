@@ -54,8 +54,12 @@ impl IncrementEquations<'_> {
             // nothing would let it slide without friction (a grain that two neighbours close
             // on would slide out of the wedge they make instead of being held in it). Only
             // the first touch: a pair that opens and closes again on the way has a limit of
-            // its own by then.
-            let first_touch = c.start_overlap < 0.0 && !c.bonded && !lag.made && n > 0.0;
+            // its own by then. A frictionless contact has no stick to give.
+            let first_touch = c.start_overlap < 0.0
+                && !c.bonded
+                && !lag.made
+                && n > 0.0
+                && c.params.friction > 0.0;
             lag.made |= first_touch;
             lag.limit = if c.bonded || c.params.friction.is_infinite() || first_touch {
                 f64::INFINITY
