@@ -8,6 +8,7 @@ mod increment;
 mod load_step;
 mod newton_step;
 mod potential;
+mod probe;
 mod relaxation;
 mod setup;
 mod stability;

@@ -509,7 +509,7 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 /// `K + lambda k U` into `out`, `k` the mean diagonal stiffness of the rows that have one
 /// and `U` the units of the rows; a row with less than `WEAK_ROW k u_i` gets that much more,
 /// and a floppy rotation its floor (`FLOPPY_ROTATION`).
-pub(crate) fn regularise(
+pub fn regularise(
     eq: &dyn Potential,
     values: &[f64],
     diagonal: &[usize],
