@@ -45,6 +45,17 @@ pub struct Response {
     pub dfs_ds: f64,
 }
 
+impl Response {
+    /// Whether it has neither force nor stiffness (a contact apart): its block is zero.
+    pub fn is_zero(&self) -> bool {
+        self.normal_force == 0.0
+            && self.shear_force == 0.0
+            && self.dfn_dn == 0.0
+            && self.dfs_dn == 0.0
+            && self.dfs_ds == 0.0
+    }
+}
+
 /// A contact law: the force by the return map from the committed shear force, and its tangent.
 pub trait ContactLaw: Send + Sync {
     /// Normal force and `dF_n/dn` at overlap `n` (negative: apart).
