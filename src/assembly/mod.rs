@@ -250,7 +250,7 @@ pub struct Pattern {
     /// Column structure for faer.
     pub symbolic: SymbolicSparseColMat<usize>,
     /// For pair `p`, `slots[start[p]..start[p+1]]` holds the value index of each
-    /// (row, column) of its reduced block, row-major.
+    /// (row, column) of its reduced block, column by column as the values lie.
     slots: Vec<usize>,
     start: Vec<usize>,
     /// Value index of each diagonal entry.
@@ -328,7 +328,7 @@ impl Pattern {
             let m = &maps[p];
             let dofs = &m.dofs[..m.len];
             dofs.iter()
-                .flat_map(move |&r| dofs.iter().map(move |&c| (r, c)))
+                .flat_map(move |&c| dofs.iter().map(move |&r| (r, c)))
                 .map(|(r, c)| slot(r, c))
         });
         let diagonal = (0..n).map(|j| slot(j, j)).collect();
@@ -371,7 +371,7 @@ impl Pattern {
         self.symbolic.row_idx().len()
     }
 
-    /// Value indices of pair `p`'s reduced block, row-major.
+    /// Value indices of pair `p`'s reduced block, column by column.
     pub fn pair_slots(&self, p: usize) -> &[usize] {
         &self.slots[self.start[p]..self.start[p + 1]]
     }
@@ -435,12 +435,10 @@ impl Pattern {
                     let Some(values) = values.as_deref_mut() else {
                         continue;
                     };
-                    // Each entry of the block has its own slot: the order they are added
-                    // in does not matter, only that of the contacts.
-                    for (row, slots) in local.stiffness.iter().zip(slots.chunks_exact(map.len)) {
-                        for ((&value, &slot), col) in row.iter().zip(slots).zip(dofs) {
-                            if range.contains(col) {
-                                values[slot - offset] += value;
+                    for (b, slots) in slots.chunks_exact(map.len).enumerate() {
+                        if range.contains(&dofs[b]) {
+                            for (row, &slot) in local.stiffness.iter().zip(slots) {
+                                values[slot - offset] += row[b];
                             }
                         }
                     }
