@@ -64,14 +64,18 @@ fn minimise(c: &mut Criterion<CpuTime>) {
                 b.iter(|| eq.evaluate(&u, &mut residual, None, false))
             });
 
-            let mut regularised = Vec::new();
-            regularise(eq, &values, &pattern.diagonal, 1e-4, &mut regularised);
-            let matrix = SparseColMatRef::new(pattern.symbolic.as_ref(), &regularised);
+            let mut shift = vec![0.0; n];
+            regularise(eq, &values, &pattern.diagonal, 1e-4, &mut shift);
+            let matrix = SparseColMatRef::new(pattern.symbolic.as_ref(), &values);
             let mut stats = SolverStats::default();
             let mut linear = LinearSolver::new(grainstat::solver::LinearKind::Cholesky);
             linear.analyse(&pattern.symbolic, &mut stats).unwrap();
             group.bench_function(name("factorisation"), |b| {
-                b.iter(|| linear.factorize(matrix, &mut stats).unwrap())
+                b.iter(|| {
+                    linear
+                        .factorize_shifted(matrix, &shift, &mut stats)
+                        .unwrap()
+                })
             });
             let mut x = residual.clone();
             group.bench_function(name("solve"), |b| {
@@ -81,6 +85,12 @@ fn minimise(c: &mut Criterion<CpuTime>) {
                 })
             });
 
+            // faer alone on the same matrix, regularised.
+            let mut regularised = values.clone();
+            for (&slot, add) in pattern.diagonal.iter().zip(&shift) {
+                regularised[slot] += add;
+            }
+            let matrix = SparseColMatRef::new(pattern.symbolic.as_ref(), &regularised);
             let symbolic = factorize_symbolic_cholesky(
                 pattern.symbolic.as_ref(),
                 Side::Lower,

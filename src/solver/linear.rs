@@ -17,11 +17,14 @@ use super::stats::{secs, SolverStats};
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::cholesky::ldlt::factor::LdltRegularization;
 use faer::linalg::cholesky::llt::factor::LltRegularization;
+use faer::perm::PermRef;
 use faer::sparse::linalg::cholesky::{
     factorize_symbolic_cholesky, simplicial::SimplicialLdltRef, supernodal::SupernodalLdltRef,
-    LltRef, SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering,
+    CholeskySymbolicParams, LltRef, SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering,
 };
 use faer::sparse::linalg::lu::{factorize_symbolic_lu, LuRef, NumericLu, SymbolicLu};
+use faer::sparse::linalg::SupernodalThreshold;
+use faer::sparse::utils::{permute_self_adjoint_scratch, permute_self_adjoint_to_unsorted};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
 use faer::{Conj, MatMut, Par, Side};
 use std::time::Instant;
@@ -36,11 +39,138 @@ pub struct NotFactorizable(pub String);
 /// LU's are not, so the LU stays on one thread.
 pub const PARALLEL_UNKNOWNS: usize = 100_000;
 
+/// The Cholesky of a pattern: faer's symbolic factorisation of the matrix already in its
+/// fill-reducing order, that matrix, and the factors' values.
+///
+/// faer would permute the matrix into that order (and copy it) at every factorisation; here
+/// the values are gathered into it straight from the pattern's, laid out as faer lays them
+/// out itself, so the factors are the same bit for bit.
+struct Cholesky {
+    /// The symbolic factorisation of `ordered`, in the identity order.
+    symbolic: SymbolicCholesky<usize>,
+    /// `P A P^T`: the triangle of it the numeric factorisation reads.
+    ordered: SymbolicSparseColMat<usize>,
+    /// Which triangle that is (faer's simplicial factorisation reads the upper one, its
+    /// supernodal one the lower).
+    side: Side,
+    /// The value of `A` each entry of `ordered` takes.
+    source: Vec<usize>,
+    /// Where each pivot's diagonal entry lies in `ordered`.
+    diagonal: Vec<usize>,
+    /// The unknown of each pivot, and the pivot of each unknown.
+    forward: Vec<usize>,
+    inverse: Vec<usize>,
+    /// The values of `ordered`.
+    values: Vec<f64>,
+    /// A right-hand side in the pivots' order.
+    work: Vec<f64>,
+    /// The values of `L L^T`, and those of the `L D L^T` of the stability indicator
+    /// (allocated when first needed).
+    llt: Vec<f64>,
+    ldlt: Vec<f64>,
+}
+
+impl Cholesky {
+    /// The Cholesky of `pattern` (both triangles stored) in faer's AMD order.
+    fn analyse(pattern: &SymbolicSparseColMat<usize>) -> Result<Self, faer::sparse::FaerError> {
+        let amd = factorize_symbolic_cholesky(
+            pattern.as_ref(),
+            Side::Lower,
+            SymmetricOrdering::Amd,
+            Default::default(),
+        )?;
+        let supernodal = matches!(amd.raw(), SymbolicCholeskyRaw::Supernodal(_));
+        let perm = amd.perm().expect("an AMD ordering");
+        // faer's symbolic factorisation reads the upper triangle, as it permutes it itself.
+        let (upper, upper_source) = permute(pattern, perm, Side::Upper)?;
+        let params = CholeskySymbolicParams {
+            supernodal_flop_ratio_threshold: if supernodal {
+                SupernodalThreshold::FORCE_SUPERNODAL
+            } else {
+                SupernodalThreshold::FORCE_SIMPLICIAL
+            },
+            ..Default::default()
+        };
+        let symbolic = factorize_symbolic_cholesky(
+            upper.as_ref(),
+            Side::Upper,
+            SymmetricOrdering::Identity,
+            params,
+        )?;
+        let (side, (ordered, source)) = if supernodal {
+            (Side::Lower, permute(pattern, perm, Side::Lower)?)
+        } else {
+            (Side::Upper, (upper, upper_source))
+        };
+        let n = pattern.nrows();
+        let diagonal = (0..n)
+            .map(|j| {
+                let start = ordered.col_ptr()[j];
+                let rows = ordered.row_idx_of_col_raw(j);
+                start + rows.iter().position(|&i| i == j).expect("a diagonal entry")
+            })
+            .collect();
+        let (forward, inverse) = perm.arrays();
+        Ok(Cholesky {
+            llt: vec![0.0; symbolic.len_val()],
+            ldlt: Vec::new(),
+            symbolic,
+            values: vec![0.0; source.len()],
+            ordered,
+            side,
+            source,
+            diagonal,
+            forward: forward.to_vec(),
+            inverse: inverse.to_vec(),
+            work: vec![0.0; n],
+        })
+    }
+
+    /// `P (A + diag(shift)) P^T` into `values` (no shift when `shift` is empty).
+    fn gather(&mut self, a: &[f64], shift: &[f64]) {
+        for (value, &k) in self.values.iter_mut().zip(&self.source) {
+            *value = a[k];
+        }
+        if !shift.is_empty() {
+            for (&slot, &dof) in self.diagonal.iter().zip(&self.forward) {
+                self.values[slot] += shift[dof];
+            }
+        }
+    }
+}
+
+/// `P A P^T` of the pattern `A` (both triangles stored), its triangle `side` laid out as faer
+/// lays it out when it permutes a matrix itself, and the entry of `A` each of its entries is.
+fn permute(
+    pattern: &SymbolicSparseColMat<usize>,
+    perm: PermRef<'_, usize>,
+    side: Side,
+) -> Result<(SymbolicSparseColMat<usize>, Vec<usize>), faer::sparse::FaerError> {
+    let (n, nnz) = (pattern.nrows(), pattern.row_idx().len());
+    // Each entry's index as its value (exact: far below 2^53), carried along by faer.
+    let index: Vec<f64> = (0..nnz).map(|k| k as f64).collect();
+    let (mut source, mut col_ptr, mut row_idx) = (vec![0.0; nnz], vec![0; n + 1], vec![0; nnz]);
+    let mut scratch = MemBuffer::new(permute_self_adjoint_scratch::<usize>(n));
+    permute_self_adjoint_to_unsorted(
+        &mut source,
+        &mut col_ptr,
+        &mut row_idx,
+        SparseColMatRef::new(pattern.as_ref(), &index),
+        perm,
+        Side::Lower,
+        side,
+        MemStack::new(&mut scratch),
+    );
+    let len = col_ptr[n];
+    row_idx.truncate(len);
+    let source = source[..len].iter().map(|&k| k as usize).collect();
+    let ordered = SymbolicSparseColMat::new_unsorted_checked(n, n, col_ptr, None, row_idx);
+    Ok((ordered, source))
+}
+
 enum Symbolic {
     None,
-    /// The symbolic factorisation, the values of `L L^T`, and those of the `L D L^T` of the
-    /// stability indicator (allocated when first needed).
-    Cholesky(SymbolicCholesky<usize>, Vec<f64>, Vec<f64>),
+    Cholesky(Box<Cholesky>),
     Lu(SymbolicLu<usize>, Box<NumericLu<usize, f64>>),
 }
 
@@ -89,20 +219,14 @@ impl LinearSolver {
         let fail = |e: faer::sparse::FaerError| NotFactorizable(format!("{e:?}"));
         self.symbolic = match self.kind {
             LinearKind::Cholesky => {
-                let s = factorize_symbolic_cholesky(
-                    pattern.as_ref(),
-                    Side::Lower,
-                    SymmetricOrdering::Amd,
-                    Default::default(),
-                )
-                .map_err(fail)?;
+                let c = Cholesky::analyse(pattern).map_err(fail)?;
+                let s = &c.symbolic;
                 self.scratch = MemBuffer::new(StackReq::any_of(&[
                     s.factorize_numeric_llt_scratch::<f64>(self.par, Default::default()),
                     s.factorize_numeric_ldlt_scratch::<f64>(self.par, Default::default()),
                     s.solve_in_place_scratch::<f64>(1, self.par),
                 ]));
-                let values = vec![0.0; s.len_val()];
-                Symbolic::Cholesky(s, values, Vec::new())
+                Symbolic::Cholesky(Box::new(c))
             }
             LinearKind::Lu => {
                 let s =
@@ -126,27 +250,44 @@ impl LinearSolver {
         matrix: SparseColMatRef<'_, usize, f64>,
         stats: &mut SolverStats,
     ) -> Result<(), NotFactorizable> {
+        self.factorize_shifted(matrix, &[], stats)
+    }
+
+    /// Numeric factorisation of `matrix + diag(shift)` (`matrix` with the analysed pattern);
+    /// an empty `shift` adds nothing. Only the Cholesky takes a shift.
+    pub fn factorize_shifted(
+        &mut self,
+        matrix: SparseColMatRef<'_, usize, f64>,
+        shift: &[f64],
+        stats: &mut SolverStats,
+    ) -> Result<(), NotFactorizable> {
         let start = Instant::now();
         self.factorized = false;
         let stack = MemStack::new(&mut self.scratch);
         let result = match &mut self.symbolic {
             Symbolic::None => return Err(NotFactorizable("no symbolic factorisation".into())),
-            Symbolic::Cholesky(s, values, _) => s
-                .factorize_numeric_llt(
-                    values,
-                    matrix,
-                    Side::Lower,
-                    LltRegularization::default(),
-                    self.par,
-                    stack,
-                    Default::default(),
-                )
-                .map(|_| ())
-                .map_err(|e| NotFactorizable(format!("{e:?}"))),
-            Symbolic::Lu(s, numeric) => s
-                .factorize_numeric_lu(numeric, matrix, self.par, stack, Default::default())
-                .map(|_| ())
-                .map_err(|e| NotFactorizable(format!("{e:?}"))),
+            Symbolic::Cholesky(c) => {
+                c.gather(matrix.val(), shift);
+                let c = &mut **c;
+                c.symbolic
+                    .factorize_numeric_llt(
+                        &mut c.llt,
+                        SparseColMatRef::new(c.ordered.as_ref(), &c.values),
+                        c.side,
+                        LltRegularization::default(),
+                        self.par,
+                        stack,
+                        Default::default(),
+                    )
+                    .map(|_| ())
+                    .map_err(|e| NotFactorizable(format!("{e:?}")))
+            }
+            Symbolic::Lu(s, numeric) => {
+                assert!(shift.is_empty(), "the LU takes no shift");
+                s.factorize_numeric_lu(numeric, matrix, self.par, stack, Default::default())
+                    .map(|_| ())
+                    .map_err(|e| NotFactorizable(format!("{e:?}")))
+            }
         };
         stats.counters.numeric_factorisations += 1;
         stats.timers.factorisation += secs(start);
@@ -168,15 +309,27 @@ impl LinearSolver {
     pub fn solve_in_place(&mut self, rhs: &mut [f64], stats: &mut SolverStats) {
         let start = Instant::now();
         let n = rhs.len();
-        let x = MatMut::from_column_major_slice_mut(rhs, n, 1);
         let stack = MemStack::new(&mut self.scratch);
-        match &self.symbolic {
-            Symbolic::Cholesky(s, values, _) => {
-                LltRef::new(s, values).solve_in_place_with_conj(Conj::No, x, self.par, stack)
+        match &mut self.symbolic {
+            Symbolic::Cholesky(c) => {
+                let c = &mut **c;
+                for (w, &dof) in c.work.iter_mut().zip(&c.forward) {
+                    *w = rhs[dof];
+                }
+                let x = MatMut::from_column_major_slice_mut(&mut c.work, n, 1);
+                LltRef::new(&c.symbolic, &c.llt).solve_in_place_with_conj(
+                    Conj::No,
+                    x,
+                    self.par,
+                    stack,
+                );
+                for (r, &pivot) in rhs.iter_mut().zip(&c.inverse) {
+                    *r = c.work[pivot];
+                }
             }
             Symbolic::Lu(s, numeric) => LuRef::new_unchecked(s, numeric).solve_in_place_with_conj(
                 Conj::No,
-                x,
+                MatMut::from_column_major_slice_mut(rhs, n, 1),
                 self.par,
                 stack,
             ),
@@ -197,20 +350,22 @@ impl LinearSolver {
         stats: &mut SolverStats,
     ) -> Result<usize, NotFactorizable> {
         let start = Instant::now();
-        let Symbolic::Cholesky(s, _, values) = &mut self.symbolic else {
+        let Symbolic::Cholesky(c) = &mut self.symbolic else {
             return Err(NotFactorizable("no symmetric analysis".into()));
         };
-        values.resize(s.len_val(), 0.0);
+        c.gather(matrix.val(), &[]);
+        let c = &mut **c;
+        c.ldlt.resize(c.symbolic.len_val(), 0.0);
         // Pivots within the threshold are set to +-threshold, so that none is zero.
         let regularization = LdltRegularization {
             dynamic_regularization_signs: None,
             dynamic_regularization_delta: threshold,
             dynamic_regularization_epsilon: threshold,
         };
-        let result = s.factorize_numeric_ldlt(
-            values,
-            matrix,
-            Side::Lower,
+        let result = c.symbolic.factorize_numeric_ldlt(
+            &mut c.ldlt,
+            SparseColMatRef::new(c.ordered.as_ref(), &c.values),
+            c.side,
             regularization,
             self.par,
             MemStack::new(&mut self.scratch),
@@ -220,7 +375,8 @@ impl LinearSolver {
         stats.timers.factorisation += secs(start);
         result.map_err(|e| NotFactorizable(format!("{e:?}")))?;
         let negative = |d: &f64| *d < -threshold;
-        Ok(match s.raw() {
+        let values = &c.ldlt;
+        Ok(match c.symbolic.raw() {
             // Each column of a simplicial factor starts with its pivot.
             SymbolicCholeskyRaw::Simplicial(sym) => {
                 let factor = SimplicialLdltRef::new(sym, values);
@@ -294,11 +450,75 @@ mod tests {
                 .unwrap();
             assert_eq!(counted, below, "grid {n} x {n} shifted by {shift}");
             assert!(below > 0 || shift == 0.0);
-            if let Symbolic::Cholesky(s, ..) = &solver.symbolic {
-                supernodal |= matches!(s.raw(), SymbolicCholeskyRaw::Supernodal(_));
+            if let Symbolic::Cholesky(c) = &solver.symbolic {
+                supernodal |= matches!(c.symbolic.raw(), SymbolicCholeskyRaw::Supernodal(_));
             }
         }
         assert!(supernodal, "the supernodal path was taken");
+    }
+
+    #[test]
+    fn the_cholesky_is_faers_own_bit_for_bit() {
+        let mut stats = SolverStats::default();
+        // Simplicial and supernodal.
+        for n in [6, 250] {
+            let (mut matrix, _) = shifted_laplacian(n, 0.0);
+            let pattern = matrix.symbolic().to_owned().unwrap();
+            let diagonal: Vec<usize> = (0..n * n)
+                .map(|j| {
+                    let start = pattern.col_ptr()[j];
+                    start + pattern.row_idx_of_col_raw(j).binary_search(&j).unwrap()
+                })
+                .collect();
+            let shift: Vec<f64> = (0..n * n).map(|j| 0.1 * (j % 3) as f64).collect();
+            let rhs: Vec<f64> = (0..n * n).map(|i| (i % 7) as f64 - 3.0).collect();
+            let mut solver = LinearSolver::new(LinearKind::Cholesky);
+            solver.analyse(&pattern, &mut stats).unwrap();
+            solver
+                .factorize_shifted(matrix.as_ref(), &shift, &mut stats)
+                .unwrap();
+            let mut ours = rhs.clone();
+            solver.solve_in_place(&mut ours, &mut stats);
+
+            for (&slot, add) in diagonal.iter().zip(&shift) {
+                matrix.val_mut()[slot] += add;
+            }
+            let faer = factorize_symbolic_cholesky(
+                pattern.as_ref(),
+                Side::Lower,
+                SymmetricOrdering::Amd,
+                Default::default(),
+            )
+            .unwrap();
+            let mut values = vec![0.0; faer.len_val()];
+            let mut scratch = MemBuffer::new(StackReq::any_of(&[
+                faer.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()),
+                faer.solve_in_place_scratch::<f64>(1, Par::Seq),
+            ]));
+            let factor = faer
+                .factorize_numeric_llt(
+                    &mut values,
+                    matrix.as_ref(),
+                    Side::Lower,
+                    LltRegularization::default(),
+                    Par::Seq,
+                    MemStack::new(&mut scratch),
+                    Default::default(),
+                )
+                .unwrap();
+            let mut theirs = rhs.clone();
+            factor.solve_in_place_with_conj(
+                Conj::No,
+                MatMut::from_column_major_slice_mut(&mut theirs, n * n, 1),
+                Par::Seq,
+                MemStack::new(&mut scratch),
+            );
+            let differ = ours
+                .iter()
+                .zip(&theirs)
+                .filter(|(a, b)| a.to_bits() != b.to_bits());
+            assert_eq!(differ.count(), 0, "grid {n} x {n}");
+        }
     }
 
     #[test]

@@ -219,7 +219,7 @@ pub fn minimise(
     let mut du = vec![0.0; n];
     let mut trial_u = vec![0.0; n];
     let mut loads = vec![0.0; n];
-    let mut regularised = vec![0.0; values.len()];
+    let mut shift = vec![0.0; n];
 
     let mut energy = eq.evaluate(u, &mut residual, Some(values), true)?;
     let (mut rel, mut worst, mut merit) = eq.residual_norm(&residual);
@@ -269,10 +269,10 @@ pub fn minimise(
             values,
             diagonal,
             lambda.max(settings.lambda_min),
-            &mut regularised,
+            &mut shift,
         );
-        let a = SparseColMatRef::new(symbolic.as_ref(), &regularised);
-        if let Err(e) = linear.factorize(a, stats) {
+        let a = SparseColMatRef::new(symbolic.as_ref(), values);
+        if let Err(e) = linear.factorize_shifted(a, &shift, stats) {
             if lambda >= 1e6 {
                 return Err(NumericError::Singular { detail: e.0 });
             }
@@ -506,18 +506,17 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
-/// `K + lambda k U` into `out`, `k` the mean diagonal stiffness of the rows that have one
-/// and `U` the units of the rows; a row with less than `WEAK_ROW k u_i` gets that much more,
-/// and a floppy rotation its floor (`FLOPPY_ROTATION`).
+/// What `K + lambda k U` adds to each diagonal entry of `K` into `shift`, `k` the mean
+/// diagonal stiffness of the rows that have one and `U` the units of the rows; a row with
+/// less than `WEAK_ROW k u_i` gets that much more, and a floppy rotation its floor
+/// (`FLOPPY_ROTATION`). The linear solver adds it as it takes `K` in.
 pub fn regularise(
     eq: &dyn Potential,
     values: &[f64],
     diagonal: &[usize],
     lambda: f64,
-    out: &mut Vec<f64>,
+    shift: &mut [f64],
 ) {
-    out.clear();
-    out.extend_from_slice(values);
     let (mut sum, mut count) = (0.0, 0usize);
     for (dof, &s) in diagonal.iter().enumerate() {
         if values[s] > 0.0 {
@@ -539,6 +538,6 @@ pub fn regularise(
             }
             None => WEAK_ROW * unit,
         };
-        out[s] += lambda * unit + (floor - values[s]).max(0.0);
+        shift[dof] = lambda * unit + (floor - values[s]).max(0.0);
     }
 }
