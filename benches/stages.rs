@@ -144,6 +144,7 @@ fn stages(c: &mut Criterion) {
             load_scale: 0.0,
             lagged: false,
             frame_correction: Vec::new(),
+            rotation_scratch: Default::default(),
             refreeze: false,
             projected: false,
             loads: Vec::new(),

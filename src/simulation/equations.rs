@@ -1,6 +1,7 @@
 //! The equilibrium equations of one load increment: residual `R = f_ext + f_contact` on every
 //! unknown, and the tangent `K = -dR/du`, assembled into the fixed pattern.
 
+use super::potential::RotationScratch;
 use super::LoadStep;
 use crate::assembly::{contact_block, frame_turn_force, BlockTangent, DofMap, PairMap, Pattern};
 use crate::contact::{kinematics, Configuration, Contact, ContactLaw, Kinematics, SlipTangent};
@@ -237,6 +238,8 @@ pub struct IncrementEquations<'a> {
     /// What the true residual had beyond the exact gradient at the last refreeze, held as a
     /// load until the next (a lagged, non-conservative part, like a follower load's).
     pub frame_correction: Vec<f64>,
+    /// Buffers the grains' rotation balance keeps between calls.
+    pub rotation_scratch: RotationScratch,
 }
 
 impl IncrementEquations<'_> {

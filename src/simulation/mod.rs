@@ -456,6 +456,7 @@ impl Simulation {
             load_scale: 0.0,
             lagged: self.config.strategy == Strategy::Minimise,
             frame_correction: Vec::new(),
+            rotation_scratch: Default::default(),
             refreeze: false,
             projected: self.config.strategy == Strategy::Minimise,
             loads: Vec::new(),
