@@ -1,7 +1,8 @@
 //! The pieces of one iteration of the minimisation (`strategy = "minimise"`) on a prepared
 //! sample: one evaluation of the potential with its Hessian (refrozen or not) and one without
 //! (a line search's), the factorisation of the regularised Hessian by the solver and by faer
-//! alone on the same matrix (its own ordering and permutation, buffers kept), and one solve.
+//! alone on the same matrix (its own ordering and permutation, buffers kept; simplicial or
+//! supernodal as faer chooses, and in supernodes), and one solve.
 //! The potential is the one the first iteration of the scene's next increment meets. Times
 //! are the thread's CPU time: the machines this runs on are shared.
 //!
@@ -12,7 +13,10 @@
 use criterion::measurement::{Measurement, ValueFormatter, WallTime};
 use criterion::{criterion_group, criterion_main, Criterion};
 use faer::dyn_stack::{MemBuffer, MemStack};
-use faer::sparse::linalg::cholesky::{factorize_symbolic_cholesky, SymmetricOrdering};
+use faer::sparse::linalg::cholesky::{
+    factorize_symbolic_cholesky, CholeskySymbolicParams, SymmetricOrdering,
+};
+use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::SparseColMatRef;
 use faer::{Par, Side};
 use grainstat::run;
@@ -91,33 +95,47 @@ fn minimise(c: &mut Criterion<CpuTime>) {
                 regularised[slot] += add;
             }
             let matrix = SparseColMatRef::new(pattern.symbolic.as_ref(), &regularised);
-            let symbolic = factorize_symbolic_cholesky(
-                pattern.symbolic.as_ref(),
-                Side::Lower,
-                SymmetricOrdering::Amd,
-                Default::default(),
-            )
-            .unwrap();
-            let mut l_values = vec![0.0; symbolic.len_val()];
-            let mut buffer = MemBuffer::new(
-                symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()),
-            );
-            group.bench_function(name("factorisation, faer alone"), |b| {
-                b.iter(|| {
-                    symbolic
-                        .factorize_numeric_llt(
-                            &mut l_values,
-                            matrix,
-                            Side::Lower,
-                            Default::default(),
-                            Par::Seq,
-                            MemStack::new(&mut buffer),
-                            Default::default(),
-                        )
-                        .map(|_| ())
-                        .unwrap()
-                })
-            });
+            // faer's own choice (simplicial below some 5,000 grains), and in supernodes as
+            // the solver factorises.
+            for (label, threshold) in [
+                ("faer alone", SupernodalThreshold::AUTO),
+                (
+                    "faer alone in supernodes",
+                    SupernodalThreshold::FORCE_SUPERNODAL,
+                ),
+            ] {
+                let params = CholeskySymbolicParams {
+                    supernodal_flop_ratio_threshold: threshold,
+                    ..Default::default()
+                };
+                let symbolic = factorize_symbolic_cholesky(
+                    pattern.symbolic.as_ref(),
+                    Side::Lower,
+                    SymmetricOrdering::Amd,
+                    params,
+                )
+                .unwrap();
+                let mut l_values = vec![0.0; symbolic.len_val()];
+                let mut buffer = MemBuffer::new(
+                    symbolic.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()),
+                );
+                group.bench_function(name(&format!("factorisation, {label}")), |b| {
+                    b.iter(|| {
+                        symbolic
+                            .factorize_numeric_llt(
+                                &mut l_values,
+                                matrix,
+                                Side::Lower,
+                                Default::default(),
+                                Par::Seq,
+                                MemStack::new(&mut buffer),
+                                Default::default(),
+                            )
+                            .map(|_| ())
+                            .unwrap()
+                    })
+                });
+            }
         })
         .unwrap()
     }
