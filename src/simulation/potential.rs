@@ -40,12 +40,13 @@ struct Shear {
 }
 
 /// What [`Potential::balance_rotations`] keeps between calls, so that it allocates nothing:
-/// the contacts' shears and each grain's contacts.
+/// the contacts' shears, each grain's contacts, and those of the grain it turns.
 #[derive(Debug, Default)]
 pub struct RotationScratch {
     shears: Vec<Shear>,
     first: Vec<usize>,
     members: Vec<usize>,
+    turning: Vec<(f64, f64, f64)>,
 }
 
 impl IncrementEquations<'_> {
@@ -310,6 +311,7 @@ impl Potential for IncrementEquations<'_> {
             mut shears,
             mut first,
             mut members,
+            mut turning,
         } = std::mem::take(&mut self.rotation_scratch);
         shears.clear();
         first.clear();
@@ -356,13 +358,17 @@ impl Potential for IncrementEquations<'_> {
                 continue;
             }
             let r = self.grains.radius[g];
-            // The moment on the grain turned by `d`: each contact's shear falls by `r d`.
+            // The moment on the grain turned by `d`: each contact's shear falls by `r d`. Its
+            // contacts' trial force, `k r` and limit side by side, as it is evaluated often.
+            turning.clear();
+            turning.extend(list.iter().map(|&i| {
+                let c = &shears[i];
+                (c.trial, c.stiffness * r, c.limit)
+            }));
             let moment = |d: f64| -> f64 {
-                list.iter()
-                    .map(|&i| {
-                        let c = &shears[i];
-                        r * (c.trial - c.stiffness * r * d).clamp(-c.limit, c.limit)
-                    })
+                turning
+                    .iter()
+                    .map(|&(trial, kr, limit)| r * (trial - kr * d).clamp(-limit, limit))
                     .sum()
             };
             let now = moment(0.0);
@@ -416,6 +422,7 @@ impl Potential for IncrementEquations<'_> {
             shears,
             first,
             members,
+            turning,
         };
     }
 
