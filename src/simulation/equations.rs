@@ -498,11 +498,15 @@ impl IncrementEquations<'_> {
         self.load_scale = sum_ext / loaded;
         self.update_contacts()?;
         let start = Instant::now();
-        // Glue contacts carry nothing that changes (see `is_glue`): they count nowhere.
-        let (mut sum_fn, mut energy) = (0.0, 0.0);
-        for c in self.contacts.iter().filter(|c| !self.is_glue(c.pair)) {
-            sum_fn += c.response.normal_force.abs();
-            energy += c.energy;
+        // Glue contacts carry nothing that changes (see `is_glue`): they count nowhere but
+        // among the engaged.
+        let (mut sum_fn, mut energy, mut engaged) = (0.0, 0.0, 0usize);
+        for c in self.contacts.iter() {
+            engaged += usize::from(Self::engaged(c));
+            if !self.is_glue(c.pair) {
+                sum_fn += c.response.normal_force.abs();
+                energy += c.energy;
+            }
         }
         self.energy = energy;
         // Each contact's block added in the contacts' order, on the threads' shares of the
@@ -577,7 +581,7 @@ impl IncrementEquations<'_> {
         // friends lists is a contact), or, while contacts carry (almost) nothing, the wall
         // loads shared over the grains touching the loaded walls.
         let counted = if self.lagged {
-            self.contacts.iter().filter(|c| Self::engaged(c)).count()
+            engaged
         } else {
             self.contacts.len()
         };
