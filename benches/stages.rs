@@ -47,7 +47,7 @@ fn simulation(scene: &Scene, config: SolverConfig) -> Simulation {
 fn pattern_of(sim: &Simulation, skin: f64) -> (FriendSet, DofMap, Pattern) {
     let (grains, walls) = (&sim.state.grains, &sim.state.walls);
     let friends = FriendSet::build(grains, walls, skin * grains.mean_radius());
-    let dofs = DofMap::new(grains.len(), false, walls, &[]);
+    let dofs = DofMap::new(grains.len(), false, walls, &[], &[]);
     let pattern = Pattern::build(&friends, &dofs, walls, &[]);
     (friends, dofs, pattern)
 }

@@ -104,20 +104,27 @@ pub enum NumericError {
         cuts: u32,
     },
     /// No equilibrium near the last one: the minimisation carried some grains on by more than
-    /// their diameter while the potential kept falling (method note, step 4).
+    /// their diameter while the potential kept falling (method note, step 4), in a step that
+    /// changed the load by `load_change` of itself from the last equilibrium: the limit load
+    /// lies within that bracket.
     #[error(
-        "no equilibrium near in increment {increment}: {} grain(s) moved more than their \
-         diameter while the potential kept falling (first: {}), residual {residual:.2e}",
+        "no equilibrium near in increment {increment}: the descent carried {} grain(s) on \
+         while the potential kept falling (first: {}), residual {residual:.2e}, within \
+         {:.2}% of the load carried",
         grains.len(),
-        grains.iter().take(8).map(|g| g.to_string()).collect::<Vec<_>>().join(", ")
+        grains.iter().take(8).map(|g| g.to_string()).collect::<Vec<_>>().join(", "),
+        100.0 * load_change
     )]
     NoEquilibrium {
         /// The load increment (1-based).
         increment: usize,
         /// `|R|_inf / F_ref` where it stopped.
         residual: f64,
-        /// The grains carried on.
+        /// The grains carried on: those that moved more than their diameter, and the grains
+        /// moving with them.
         grains: Vec<usize>,
+        /// How much the step that found no equilibrium changed the load, as a share of it.
+        load_change: f64,
     },
     /// A stage produced NaN or infinity.
     #[error("{what} is not finite at {place}")]

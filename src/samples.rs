@@ -186,3 +186,53 @@ stress = {{ top = 2e5 }}
     }
     scene
 }
+
+/// A small thick-walled cylinder (thesis 4.4): the grains of [`hex_crystal`] (radius 0.1 mm)
+/// whose centres lie between `inner` and `outer` grain diameters from the lattice's centre,
+/// cemented with the sandstone defaults of table 8, under a ring membrane `outer` at 10 bar
+/// with the borehole free. One stage raises the pressure by 10 bar per increment over
+/// `increments`.
+pub fn cemented_annulus(inner: f64, outer: f64, increments: usize) -> Scene {
+    let r = 1e-4;
+    let side = (2.0 * outer).ceil() as usize + 3;
+    let lattice = hex_crystal(side, side, r, false);
+    let [x0, y0, x1, y1] = lattice.bounding_box();
+    let center = [0.5 * (x0 + x1), 0.5 * (y0 + y1)];
+    let (mut x, mut y) = (Vec::new(), Vec::new());
+    for p in &lattice.position {
+        let d = (p[0] - center[0]).hypot(p[1] - center[1]) / (2.0 * r);
+        if (inner..=outer).contains(&d) {
+            x.push(format!("{:e}", p[0] - center[0]));
+            y.push(format!("{:e}", p[1] - center[1]));
+        }
+    }
+    let (x, y) = (x.join(", "), y.join(", "));
+    let n = x.matches(',').count() + 1;
+    let radii = vec![format!("{r:e}"); n].join(", ");
+    let target = 1e6 * (1 + increments) as f64;
+    let text = format!(
+        r#"
+name = "cemented-annulus"
+[material]
+law = "linear"
+normal_stiffness = 1e6
+poisson = 0.16
+friction = 0.6
+cohesion = 1e8
+bonded = true
+[grains]
+x = [{x}]
+y = [{y}]
+r = [{radii}]
+[[membranes]]
+name = "outer"
+ring = [0.0, 0.0]
+pressure = 1e6
+[[stages]]
+name = "radial pressure"
+increments = {increments}
+stress = {{ outer = {target:e} }}
+"#
+    );
+    parse_scene(&text, "samples::cemented_annulus").expect("sample scene is valid")
+}

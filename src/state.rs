@@ -32,6 +32,39 @@ pub struct State {
     /// Each unknown's displacement in the last increment of the current stage (empty at a
     /// stage's start): the predictor the next increment starts from.
     pub last_step: Vec<f64>,
+    /// The clusters of grains taken out of the sample so far, in order (see
+    /// [`crate::simulation::Simulation::take_out`]); their grains are those marked in
+    /// [`GrainSet::taken_out`].
+    pub breakouts: Vec<Breakout>,
+}
+
+/// A cluster of grains that broke out of the sample and was taken out of it: the thesis's
+/// functional failure of the cylinder test (4.4.2) starts with the first.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Breakout {
+    /// The load increment (1-based) in which it was taken out.
+    pub increment: usize,
+    /// The grains taken out, in increasing order.
+    pub grains: Vec<usize>,
+    /// Bonds between the cluster and the rest of the sample, broken as it was taken out.
+    pub bonds_broken: usize,
+    /// Each membrane's pressure when it was taken out (Pa): the last the sample carried in
+    /// equilibrium with the cluster in it.
+    pub pressure: Vec<f64>,
+    /// Each wall's applied stress then (Pa), `None` for a wall under displacement control.
+    pub stress: Vec<Option<f64>>,
+}
+
+impl Breakout {
+    /// The loads carried, by name: each membrane's pressure and each stress-controlled wall's
+    /// stress (Pa), as [`crate::run::Failure::carried`] has them.
+    pub fn carried(&self, membranes: &[Membrane], walls: &WallSet) -> Vec<(String, f64)> {
+        let pressures = membranes.iter().zip(&self.pressure);
+        let stresses = walls.walls.iter().zip(&self.stress);
+        (pressures.map(|(m, &p)| (m.name.clone(), p)))
+            .chain(stresses.filter_map(|(w, s)| s.map(|s| (w.name.clone(), s))))
+            .collect()
+    }
 }
 
 /// What one converged increment reports: the state's measurements and how the solver did.
@@ -88,11 +121,17 @@ impl State {
             friends_reference: grains.position.clone(),
             friends_wall_reference: walls.walls.iter().map(|w| [w.position, w.slide]).collect(),
             last_step: Vec::new(),
+            breakouts: Vec::new(),
             grains,
             walls,
             contacts,
             membranes,
         }
+    }
+
+    /// Grains taken out of the sample so far.
+    pub fn grains_taken_out(&self) -> usize {
+        self.breakouts.iter().map(|b| b.grains.len()).sum()
     }
 
     /// Keep only the walls named in `keep`, dropping the others with their contacts: how a
@@ -110,6 +149,12 @@ impl State {
             }
         }
         self.friends_wall_reference = reference;
+        for breakout in &mut self.breakouts {
+            let stress = std::mem::take(&mut breakout.stress);
+            breakout.stress = (stress.into_iter().enumerate())
+                .filter_map(|(w, s)| index[w].map(|_| s))
+                .collect();
+        }
         self.contacts.contacts.retain_mut(|c| match c.pair.a {
             Side::Wall(w) => match index[w] {
                 Some(k) => {
@@ -172,6 +217,7 @@ mod tests {
             friends_reference: vec![[0.0; 2]; 3],
             friends_wall_reference: vec![[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]],
             last_step: Vec::new(),
+            breakouts: Vec::new(),
             membranes: Vec::new(),
         };
         state.keep_walls(&["bottom", "top"]);

@@ -415,7 +415,7 @@ fn missing_and_corrupt_hdf5_files_are_exit_status_2() {
     ] {
         let out = grainstat(&["run", &scene, "--resume", file, "--quiet", "--no-plot"]);
         assert_input_error(&out, &[file, phrase]);
-        assert!(!stderr(&out).contains("is a run still writing it"));
+        assert!(!stderr(&out).contains("swapping in its next version"));
     }
 
     // A result file damaged by one byte (found by flipping bytes at random) on which libhdf5

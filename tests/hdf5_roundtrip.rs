@@ -11,7 +11,7 @@ use grainstat::output::{
 };
 use grainstat::simulation::EnergyBalance;
 use grainstat::solver::stats::SolverStats;
-use grainstat::state::{IncrementReport, State};
+use grainstat::state::{Breakout, IncrementReport, State};
 use grainstat::Error;
 use std::path::Path;
 use std::sync::Mutex;
@@ -177,10 +177,23 @@ fn state(k: usize) -> State {
         increment: 1,
         mode: BreakMode::Shear,
     }];
+    // From increment 2 on, grain 3 has broken out (when the top wall carried its stress).
+    let breakouts: Vec<Breakout> = (k >= 2)
+        .then(|| Breakout {
+            increment: 2,
+            grains: vec![3],
+            bonds_broken: 1,
+            pressure: Vec::new(),
+            stress: vec![None, None, Some(1.0e5 + 1.0e3 / 3.0), None],
+        })
+        .into_iter()
+        .collect();
+    grains.taken_out[3] = k >= 2;
     State {
         increment: k,
         stage: k / 2,
         stage_increment: k % 2,
+        breakouts,
         grains,
         walls,
         contacts: ContactSet {
@@ -232,6 +245,7 @@ fn report(s: &State) -> IncrementReport {
             stored_change: kf,
             dissipated: 0.5 * kf,
             bonds_released: 0.25 * kf,
+            taken_out: 0.125 * kf,
         },
     }
 }
@@ -320,7 +334,8 @@ fn every_increment_reads_back_exactly() {
     assert_eq!(history.float("energy_stored"), [11.0, 12.0, 13.0]);
     assert_eq!(history.float("energy_dissipated"), [0.5, 1.0, 1.5]);
     assert_eq!(history.float("energy_bonds_released"), [0.25, 0.5, 0.75]);
-    assert_eq!(history.float("energy_imbalance"), [0.125, 0.125, 0.125]);
+    assert_eq!(history.float("energy_taken_out"), [0.125, 0.25, 0.375]);
+    assert_eq!(history.float("energy_imbalance"), [0.0625, 0.0625, 0.0625]);
     assert_eq!(history.region("region_stress_xx")[1], [3.0e5 + 2.0, 5.0]);
     assert_eq!(history.region("region_stress_xy")[2], [1.0, 6.0]);
     assert_eq!(history.region("region_stress_yx")[2], [2.0, 7.0]);
@@ -332,6 +347,7 @@ fn every_increment_reads_back_exactly() {
         "increments  3 written, 1 .. 3",
         "top",
         "macro stress",
+        "breakouts          1: increment 2 (1 grain, 1 bond broken; top 1.0033e5 Pa)",
     ] {
         assert!(text.contains(needle), "info lacks {needle:?}:\n{text}");
     }
@@ -373,6 +389,118 @@ fn resume_takes_the_last_complete_increment() {
     assert_eq!(&read_state(&path, 2).unwrap().1, &states[1]);
 }
 
+/// A reader that keeps the file open keeps its version while the run writes on: the run does
+/// not write to a file held open (HDF5 will not open it for writing), it makes a new twin.
+#[test]
+fn a_reader_keeps_its_version_while_the_run_writes_on() {
+    let _serial = serial();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("run.h5");
+    let states: Vec<State> = (1..=5).map(state).collect();
+    let mut file = ResultFile::create(&path, &header(&states[0])).unwrap();
+    for s in &states[..2] {
+        file.write_increment(s, &report(s), &stats(s.increment))
+            .unwrap();
+    }
+    let reader = hdf5::File::open(&path).unwrap();
+    let mut held = std::fs::File::open(&path).unwrap();
+    let before = std::fs::read(&path).unwrap();
+    for s in &states[2..] {
+        file.write_increment(s, &report(s), &stats(s.increment))
+            .unwrap();
+    }
+    let mut after = Vec::new();
+    std::io::Read::read_to_end(&mut held, &mut after).unwrap();
+    assert!(after == before, "the file the reader holds was written to");
+    assert_eq!(reader.group("increments").unwrap().len(), 2);
+    drop(reader);
+    drop(file);
+    assert_eq!(read_increments(&path).unwrap(), vec![1, 2, 3, 4, 5]);
+    for s in &states {
+        assert_eq!(&read_state(&path, s.increment).unwrap().1, s);
+    }
+    assert!(
+        !dir.path().join("run.h5.writing").exists(),
+        "the twin outlived the run"
+    );
+}
+
+/// Rewrite every `/history` dataset of `path` as files written before it was stored plain
+/// have it: chunked, shuffled and deflated.
+fn compress_history(path: &Path) {
+    let f = hdf5::File::open_rw(path).unwrap();
+    let h = f.group("history").unwrap();
+    for name in h.member_names().unwrap() {
+        let ds = h.dataset(&name).unwrap();
+        let shape = ds.shape();
+        // Tables of no columns (no membranes here) stay as they are: none to compress.
+        if shape[1..].contains(&0) {
+            continue;
+        }
+        let extents: Vec<hdf5::Extent> = shape
+            .iter()
+            .enumerate()
+            .map(|(d, &n)| match d {
+                0 => hdf5::Extent::resizable(n),
+                _ => hdf5::Extent::fixed(n),
+            })
+            .collect();
+        let mut chunk = shape.clone();
+        chunk[0] = 256;
+        let builder = || {
+            h.new_dataset_builder()
+                .chunk(chunk.clone())
+                .shuffle()
+                .deflate(4)
+        };
+        if ds.dtype().unwrap().is::<i64>() {
+            let data = ds.read_raw::<i64>().unwrap();
+            h.unlink(&name).unwrap();
+            let ds = builder()
+                .empty::<i64>()
+                .shape(extents)
+                .create(name.as_str());
+            ds.unwrap().write_raw(&data).unwrap();
+        } else {
+            let data = ds.read_raw::<f64>().unwrap();
+            h.unlink(&name).unwrap();
+            let ds = builder()
+                .empty::<f64>()
+                .shape(extents)
+                .create(name.as_str());
+            ds.unwrap().write_raw(&data).unwrap();
+        }
+    }
+}
+
+/// A file whose `/history` was written compressed (before it was stored plain) resumes:
+/// the next rows go to its compressed datasets.
+#[test]
+fn a_file_with_a_compressed_history_resumes() {
+    let _serial = serial();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("run.h5");
+    let mut states = write_three(&path);
+    compress_history(&path);
+    let f = hdf5::File::open(&path).unwrap();
+    assert!(f.dataset("history/wall_stress").unwrap().filters().len() == 2);
+    drop(f);
+    let (mut file, _, resumed) = ResultFile::open_for_resume(&path).unwrap();
+    assert_eq!(resumed, states[2]);
+    states.push(state(4));
+    let s = &states[3];
+    file.write_increment(s, &report(s), &stats(4)).unwrap();
+    drop(file);
+    assert_eq!(read_increments(&path).unwrap(), vec![1, 2, 3, 4]);
+    for s in &states {
+        assert_eq!(&read_state(&path, s.increment).unwrap().1, s);
+    }
+    let history = read_history(&path).unwrap();
+    assert_eq!(history.int("increment"), [1, 2, 3, 4]);
+    assert_eq!(history.float("mean_rotation"), [1e-3, 2e-3, 3e-3, 4e-3]);
+    assert_eq!(history.wall("wall_stress")[3][0], 5.0e4 + 4.0);
+}
+
 #[test]
 fn empty_and_large_sets_work() {
     let _serial = serial();
@@ -393,7 +521,8 @@ fn empty_and_large_sets_work() {
     assert_eq!(read_state(&path, 0).unwrap().1, s);
     assert!(info(&path).is_ok());
 
-    // Enough grains and contacts for chunked, compressed datasets.
+    // Enough grains and contacts that the header's datasets are chunked and compressed;
+    // the increment's are written plain.
     let path = dir.path().join("large.h5");
     let n = 1500;
     let position: Vec<[f64; 2]> = (0..n)
@@ -402,6 +531,7 @@ fn empty_and_large_sets_work() {
     let mut s = state(5);
     s.grains = GrainSet::new(position.clone(), vec![0.5; n]);
     s.grains.rotation = (0..n).map(|i| (i as f64).sin() * 1e-3).collect();
+    s.grains.taken_out[3] = true;
     s.contacts.contacts = (0..n - 1)
         .map(|i| {
             contact(
@@ -428,8 +558,9 @@ fn empty_and_large_sets_work() {
     drop(file);
     assert_eq!(read_state(&path, 5).unwrap().1, s);
     let f = hdf5::File::open(&path).unwrap();
+    assert!(f.dataset("grains/radius").unwrap().is_chunked());
     let pair = f.dataset("increments/00000005/contacts/pair").unwrap();
-    assert!(pair.is_chunked());
+    assert!(!pair.is_chunked());
     assert_eq!(pair.shape(), vec![n, 2]);
 }
 
@@ -493,6 +624,48 @@ fn bad_files_are_input_errors() {
     ));
 }
 
+/// Files from before grains were taken out have no `breakouts`: none is. Breakouts that name
+/// a grain there is not, or one grain twice, are bad input.
+#[test]
+fn breakouts_read_back_and_are_checked() {
+    let _serial = serial();
+    let dir = tempfile::tempdir().unwrap();
+    let write = |name: &str, s: &State| {
+        let path = dir.path().join(name);
+        let mut file = ResultFile::create(&path, &header(s)).unwrap();
+        file.write_increment(s, &report(s), &stats(2)).unwrap();
+        path
+    };
+    let s = state(2);
+    let old = write("old.h5", &s);
+    hdf5::File::open_rw(&old)
+        .unwrap()
+        .unlink("increments/00000002/breakouts")
+        .unwrap();
+    let (_, back) = read_state(&old, 2).unwrap();
+    assert!(back.breakouts.is_empty() && !back.grains.taken_out.contains(&true));
+
+    let absent = write("absent.h5", &s);
+    hdf5::File::open_rw(&absent)
+        .unwrap()
+        .dataset("increments/00000002/breakouts/grains")
+        .unwrap()
+        .write_raw(&[9i64][..])
+        .unwrap();
+    let mut twice = s.clone();
+    twice.breakouts.push(twice.breakouts[0].clone());
+    let twice = write("twice.h5", &twice);
+    for (path, message) in [
+        (absent, "names grain 9"),
+        (twice, "grain 3 is taken out twice"),
+    ] {
+        match read_state(&path, 2) {
+            Err(Error::Input(e)) => assert!(e.message.contains(message), "{e}"),
+            other => panic!("expected an input error, got {:?}", other.map(|_| ())),
+        }
+    }
+}
+
 const PYTHON_CHECK: &str = r#"
 import sys, math
 import h5py
@@ -520,6 +693,12 @@ with h5py.File(sys.argv[1], "r") as f:
     assert g["walls/position"].shape == (4,) and g["walls/position"][2] == 1e-6 * 3.0
     assert g["macro_stress"].shape == (2, 2) and g["macro_stress"][0, 0] == 1.0e5 + 3
     assert g["broken_bonds"].shape == (1, 4) and list(g["broken_bonds"][0]) == [2, 3, 1, 1]
+    b = g["breakouts"]
+    assert list(b["increment"][...]) == [2] and list(b["grain_count"][...]) == [1]
+    assert list(b["grains"][...]) == [3] and list(b["bonds_broken"][...]) == [1]
+    assert b["membrane_pressure"].shape == (1, 0) and b["wall_stress"].shape == (1, 4)
+    assert np.isnan(b["wall_stress"][0, 0]) and b["wall_stress"][0, 2] == 1.0e5 + 1.0e3 / 3.0
+    assert "breakouts" in f["increments/00000002"] and len(f["increments/00000001/breakouts/grains"]) == 0
     h = f["history"]
     assert list(h["increment"][...]) == [1, 2, 3]
     assert h["wall_stress"].shape == (3, 4) and h["wall_stress"][2, 0] == 5.0e4 + 3

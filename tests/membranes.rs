@@ -30,6 +30,7 @@ fn stage(
         control: Vec::new(),
         until_failure: false,
         failure_drop: None,
+        breakouts: false,
     }
 }
 

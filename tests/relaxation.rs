@@ -200,6 +200,7 @@ fn relaxation_and_newton_agree_on_an_annulus_under_a_membrane() {
         control: Vec::new(),
         until_failure: false,
         failure_drop: None,
+        breakouts: false,
     };
     let run = |config: SolverConfig| {
         let mut sim = Simulation::from_state(

@@ -32,7 +32,8 @@ pub struct Glue {
 /// normal position per stress-controlled wall. A grain glued to a wall moves with it as a
 /// part of it ([`Glue`]): its contacts feed the unknowns of the walls it follows instead of
 /// its own, and its own unknowns stay in place, held at zero by springs, so every grain
-/// keeps the same layout of unknowns.
+/// keeps the same layout of unknowns. A grain taken out of the sample has its unknowns held
+/// so too: it has no contacts, and stays where it was taken out.
 #[derive(Debug, Clone, PartialEq)]
 pub struct DofMap {
     /// Unknowns per grain: 2 or 3.
@@ -43,18 +44,22 @@ pub struct DofMap {
     pub wall: Vec<Option<usize>>,
     /// For each grain, how it follows the wall it is glued to.
     pub glue: Vec<Option<Glue>>,
+    /// For each grain, whether it has been taken out of the sample.
+    pub taken_out: Vec<bool>,
     /// Total number of unknowns.
     pub len: usize,
 }
 
 impl DofMap {
     /// Unknowns for `grains` grains and the stress-controlled walls of `walls`; `glued` gives
-    /// the wall each grain is glued to, if any (empty: none is).
+    /// the wall each grain is glued to, if any, and `taken_out` whether it has been taken out
+    /// of the sample (either empty: none is).
     pub fn new(
         grains: usize,
         fixed_rotations: bool,
         walls: &WallSet,
         glued: &[Option<usize>],
+        taken_out: &[bool],
     ) -> Self {
         let per_grain = if fixed_rotations { 2 } else { 3 };
         let mut next = grains * per_grain;
@@ -87,6 +92,9 @@ impl DofMap {
             grains,
             wall,
             glue,
+            taken_out: (0..grains)
+                .map(|g| taken_out.get(g) == Some(&true))
+                .collect(),
             len: next,
         }
     }
@@ -148,9 +156,15 @@ impl DofMap {
         a.is_some() && a == wall_of(pair.b)
     }
 
-    /// Whether `dof` is one of a glued grain's own unknowns, held at zero.
+    /// Whether grain `g`'s own unknowns are held at zero: it is glued to a wall, or taken out
+    /// of the sample.
+    pub fn grain_held(&self, g: usize) -> bool {
+        self.glue[g].is_some() || self.taken_out[g]
+    }
+
+    /// Whether `dof` is one of a held grain's own unknowns ([`DofMap::grain_held`]).
     pub fn held(&self, dof: usize) -> bool {
-        self.owner(dof).is_some_and(|g| self.glue[g].is_some())
+        self.owner(dof).is_some_and(|g| self.grain_held(g))
     }
 
     /// The reduced unknowns of a pair and, for each of the 6 local entries

@@ -95,11 +95,46 @@ pub struct Lag {
     /// Whether a pair apart at the start of the increment has been found touching: its
     /// shear then counts from the touching point found then.
     pub touched: bool,
+    /// Whether such a pair has already been found touching once in this increment: only
+    /// that first touch sticks it until the next refreeze.
+    pub made: bool,
     /// Whether the overlap fell by half or more since the refreeze before: a Hertz contact
     /// unloading towards zero then gets its secant stiffness `F/n`, which reaches zero in one
     /// step, where the tangent `1.5 F/n` only divides the overlap by three.
     pub unloading: bool,
+    /// How far the last refreeze found the limit from `f N` (N), and the share of that it
+    /// took: the secant of the limit's own fixed point (see [`Lag::refrozen_limit`]).
+    pub limit_change: f64,
+    /// See `limit_change`.
+    pub limit_share: f64,
 }
+
+impl Lag {
+    /// The limit refrozen towards `target`, the Coulomb limit `f N` where the contact is now.
+    /// The lag is a fixed-point iteration, and on a contact whose normal force its own
+    /// friction drives (a grain wedged, a cluster swinging on a contact that slides) it
+    /// oscillates: the limit overshoots one way, then the other. Where the change turns back,
+    /// the limit moves by the share the secant through the last two changes gives (Aitken's
+    /// relaxation of a fixed-point iteration), which stops an oscillation of gain -1 in one
+    /// refreeze; elsewhere it takes the target.
+    pub fn refrozen_limit(&mut self, target: f64) -> f64 {
+        if !self.limit.is_finite() {
+            return target;
+        }
+        let change = target - self.limit;
+        let share = if change * self.limit_change < 0.0 {
+            (self.limit_share * self.limit_change / (self.limit_change - change))
+                .clamp(LIMIT_SHARE_MIN, 1.0)
+        } else {
+            1.0
+        };
+        (self.limit_change, self.limit_share) = (change, share);
+        (self.limit + share * change).max(0.0)
+    }
+}
+
+/// Smallest share of its change a refrozen limit takes where the change turns back.
+const LIMIT_SHARE_MIN: f64 = 0.05;
 
 impl Contact {
     /// A fresh contact with no history.

@@ -1,6 +1,8 @@
 //! The thick-walled cylinder test's failure (thesis 4.4.2): the radial pressure at which the
 //! first bonds break, at which the cylinder fails locally (1% of the bonds in the borehole
-//! region broken), and the last at which the sample was found in equilibrium; beside them
+//! region broken), at which the first cluster of grains breaks out of the borehole's
+//! surface (the functional failure, at a much higher pressure), and the last at which the
+//! sample was found in equilibrium; the grains broken out against the pressure; beside them
 //! the Mohr-Coulomb predictions of eqs. 34-37 with `c'` and `phi'` of eq. A.95.
 //!
 //! The borehole region is the ring next to the borehole that holds a tenth of the cylinder's
@@ -37,6 +39,21 @@ pub struct CylinderRow {
     /// Bonds broken so far whose grains lie within 45 degrees of the radial direction of
     /// each other: the bonds across cracks that run parallel to the borehole's surface.
     pub broken_across_radius: usize,
+    /// Grains broken out of the sample so far.
+    pub broken_out: usize,
+}
+
+/// A cluster of grains that broke out of the cylinder ([`crate::state::Breakout`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CylinderBreakout {
+    /// The increment it broke out in.
+    pub increment: usize,
+    /// The radial pressure it broke out at: the last carried with it in place (Pa).
+    pub pressure: f64,
+    /// Its grains.
+    pub grains: usize,
+    /// Bonds between it and the sample that broke as it was taken out.
+    pub bonds_broken: usize,
 }
 
 /// What eqs. 34-37 predict for the cylinder.
@@ -97,6 +114,8 @@ pub struct CylinderFailure {
     pub bonds_in_region: usize,
     /// Every written increment.
     pub rows: Vec<CylinderRow>,
+    /// Every breakout, in order, as the last written increment records them.
+    pub breakouts: Vec<CylinderBreakout>,
     /// The predictions, where the scene's material has them (bonded linear contacts, depth
     /// equal to the mean diameter as appendix 7 takes it).
     pub prediction: Option<CylinderPrediction>,
@@ -120,6 +139,11 @@ impl CylinderFailure {
     pub fn local_failure(&self) -> Option<f64> {
         let bonds = self.bonds_in_region as f64;
         self.first(|r| r.broken_in_region as f64 >= LOCAL_FAILURE * bonds)
+    }
+
+    /// Pressure at which the first cluster of grains broke out of the borehole's surface.
+    pub fn first_breakout(&self) -> Option<f64> {
+        self.breakouts.first().map(|b| b.pressure)
     }
 
     /// The summary as (name, value, unit) rows.
@@ -154,6 +178,16 @@ impl CylinderFailure {
                 "Pa",
             ),
             (
+                "pressure at the first breakout (functional failure)".into(),
+                self.first_breakout().unwrap_or(nan),
+                "Pa",
+            ),
+            (
+                "grains broken out".into(),
+                self.breakouts.iter().map(|b| b.grains).sum::<usize>() as f64,
+                "-",
+            ),
+            (
                 "last pressure in equilibrium".into(),
                 self.rows.last().map_or(nan, |r| r.pressure),
                 "Pa",
@@ -184,19 +218,38 @@ impl CylinderFailure {
         for (name, value, unit) in self.summary() {
             let _ = writeln!(text, "| {name} | {} | {unit} |", significant(value));
         }
+        if !self.breakouts.is_empty() {
+            text.push_str(
+                "\nClusters broken out of the borehole's surface:\n\n| breakout | increment | pressure [Pa] | grains | bonds broken with it | grains broken out so far |\n|---|---|---|---|---|---|\n",
+            );
+            let mut so_far = 0;
+            for (k, b) in self.breakouts.iter().enumerate() {
+                so_far += b.grains;
+                let _ = writeln!(
+                    text,
+                    "| {} | {} | {} | {} | {} | {so_far} |",
+                    k + 1,
+                    b.increment,
+                    significant(b.pressure),
+                    b.grains,
+                    b.bonds_broken
+                );
+            }
+        }
         text.push_str(
-            "\n| increment | pressure [Pa] | bonds broken | in the borehole region | share of the region's bonds | across the radius (cracks parallel to the surface) |\n|---|---|---|---|---|---|\n",
+            "\n| increment | pressure [Pa] | bonds broken | in the borehole region | share of the region's bonds | across the radius (cracks parallel to the surface) | grains broken out |\n|---|---|---|---|---|---|---|\n",
         );
         for r in &self.rows {
             let _ = writeln!(
                 text,
-                "| {} | {} | {} | {} | {} | {} |",
+                "| {} | {} | {} | {} | {} | {} | {} |",
                 r.increment,
                 significant(r.pressure),
                 r.broken,
                 r.broken_in_region,
                 significant(r.broken_in_region as f64 / self.bonds_in_region.max(1) as f64),
-                r.broken_across_radius
+                r.broken_across_radius,
+                r.broken_out
             );
         }
         if let Some(lame) = &self.lame {
@@ -229,18 +282,19 @@ impl CylinderFailure {
     /// The increments as CSV.
     pub fn csv(&self) -> String {
         let mut text = String::from(
-            "increment,pressure,broken,broken_in_region,share_in_region,broken_across_radius\n",
+            "increment,pressure,broken,broken_in_region,share_in_region,broken_across_radius,broken_out\n",
         );
         for r in &self.rows {
             let _ = writeln!(
                 text,
-                "{},{:e},{},{},{:e},{}",
+                "{},{:e},{},{},{:e},{},{}",
                 r.increment,
                 r.pressure,
                 r.broken,
                 r.broken_in_region,
                 r.broken_in_region as f64 / self.bonds_in_region.max(1) as f64,
-                r.broken_across_radius
+                r.broken_across_radius,
+                r.broken_out
             );
         }
         text
@@ -306,10 +360,16 @@ pub fn cylinder_failure(result: &Path) -> Result<Option<CylinderFailure>, Error>
         return Ok(None);
     };
     let (header, start) = read_state(result, first)?;
-    let Some(center) = header.membranes.iter().find_map(|m| match m.shape {
-        MembraneShape::Ring { center } => Some(center),
-        MembraneShape::Side { .. } => None,
-    }) else {
+    let Some((ring, center)) =
+        header
+            .membranes
+            .iter()
+            .enumerate()
+            .find_map(|(k, m)| match m.shape {
+                MembraneShape::Ring { center } => Some((k, center)),
+                MembraneShape::Side { .. } => None,
+            })
+    else {
         return Ok(None);
     };
     let grains = &start.grains;
@@ -340,16 +400,21 @@ pub fn cylinder_failure(result: &Path) -> Result<Option<CylinderFailure>, Error>
         .collect();
     let mut lame = None;
     let mut rows = Vec::with_capacity(increments.len());
+    let mut breakouts = Vec::new();
     for &k in &increments {
         let (_, state) = read_state(result, k)?;
         let broken = &state.contacts.broken_bonds;
+        breakouts = (state.breakouts.iter())
+            .map(|b| CylinderBreakout {
+                increment: b.increment,
+                pressure: b.pressure[ring],
+                grains: b.grains.len(),
+                bonds_broken: b.bonds_broken,
+            })
+            .collect();
         rows.push(CylinderRow {
             increment: k,
-            pressure: state
-                .membranes
-                .iter()
-                .find(|m| matches!(m.shape, MembraneShape::Ring { .. }))
-                .map_or(f64::NAN, |m| m.pressure),
+            pressure: state.membranes[ring].pressure,
             broken: broken.len(),
             broken_in_region: broken
                 .iter()
@@ -364,6 +429,7 @@ pub fn cylinder_failure(result: &Path) -> Result<Option<CylinderFailure>, Error>
                         if across_radius(&state.grains, i, c.pair.b, center))
                 })
                 .count(),
+            broken_out: state.grains_taken_out(),
         });
         let row = rows.last().expect("pushed");
         if k != first && row.broken == 0 && edges.len() >= 2 {
@@ -404,6 +470,7 @@ pub fn cylinder_failure(result: &Path) -> Result<Option<CylinderFailure>, Error>
         mean_diameter: d,
         bonds_in_region,
         rows,
+        breakouts,
         prediction,
         lame,
     }))
@@ -445,6 +512,7 @@ mod tests {
             broken,
             broken_in_region,
             broken_across_radius: 0,
+            broken_out: 0,
         };
         let failure = CylinderFailure {
             radii: [1.0, 3.0],
@@ -457,6 +525,7 @@ mod tests {
                 row(3, 3e6, 5, 2),
                 row(4, 4e6, 9, 3),
             ],
+            breakouts: Vec::new(),
             prediction: None,
             lame: None,
         };

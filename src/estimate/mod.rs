@@ -10,7 +10,8 @@
 mod cylinder;
 
 pub use cylinder::{
-    cylinder_failure, predict_cylinder, CylinderFailure, CylinderPrediction, CylinderRow,
+    cylinder_failure, predict_cylinder, CylinderBreakout, CylinderFailure, CylinderPrediction,
+    CylinderRow,
 };
 
 use std::fmt::Write as _;

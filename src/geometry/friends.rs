@@ -46,9 +46,10 @@ impl FriendSet {
     /// Build the lists around the current positions: a cell grid with cells as wide as the
     /// largest possible friend distance, so only the 3x3 cells around a grain are searched.
     /// Each grain's search is its own, shared over the threads; the lists come back in
-    /// grain order.
+    /// grain order. Grains taken out of the sample have no friends.
     pub fn build(grains: &GrainSet, walls: &WallSet, skin: f64) -> FriendSet {
         let n = grains.len();
+        let out = &grains.taken_out;
         let mut pairs = Vec::new();
         if n > 0 {
             let r_max = grains.radius.iter().cloned().fold(0.0, f64::max);
@@ -56,7 +57,7 @@ impl FriendSet {
             pairs = parallel::flat_map(n, |i| {
                 let mut near: Vec<usize> = grid
                     .near(grains.position[i])
-                    .filter(|&j| j > i && gap(grains, i, j) < skin)
+                    .filter(|&j| j > i && !out[i] && !out[j] && gap(grains, i, j) < skin)
                     .collect();
                 near.sort_unstable();
                 near.into_iter().map(move |j| Pair {
@@ -67,10 +68,12 @@ impl FriendSet {
         }
         for (w, wall) in walls.walls.iter().enumerate() {
             pairs.extend(parallel::flat_map(n, |i| {
-                (wall.distance(grains.position[i]) - grains.radius[i] < skin).then_some(Pair {
-                    a: Side::Wall(w),
-                    b: i,
-                })
+                (!out[i] && wall.distance(grains.position[i]) - grains.radius[i] < skin).then_some(
+                    Pair {
+                        a: Side::Wall(w),
+                        b: i,
+                    },
+                )
             }));
         }
         FriendSet {

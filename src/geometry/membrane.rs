@@ -73,16 +73,17 @@ impl Chain {
 const PROBE_RADII: f64 = 2.0;
 
 /// Each membrane's chain on grains at `position` with `radius`, over the grains that may
-/// carry it (`carrying`, see [`Membrane::chain`]).
+/// carry it (`carrying`) and those not `taken_out` (see [`Membrane::chain`]).
 pub fn chains(
     membranes: &[Membrane],
     position: &[[f64; 2]],
     radius: &[f64],
     carrying: &[bool],
+    taken_out: &[bool],
 ) -> Vec<Chain> {
     membranes
         .iter()
-        .map(|m| m.chain(position, radius, carrying))
+        .map(|m| m.chain(position, radius, carrying, taken_out))
         .collect()
 }
 
@@ -94,8 +95,15 @@ impl Membrane {
     /// anew whenever they move, pockets and bulges included. The probe passes through the
     /// grains that may not carry the membrane (`carrying[i]` false): loose grains with no
     /// support to push against, which a pressure would only push into the sample until they
-    /// met one, a motion with no equilibrium on the way.
-    pub fn chain(&self, position: &[[f64; 2]], radius: &[f64], carrying: &[bool]) -> Chain {
+    /// met one, a motion with no equilibrium on the way. A side reaches as far as the grains
+    /// of the sample do, those `taken_out` of it left out (they never carry either).
+    pub fn chain(
+        &self,
+        position: &[[f64; 2]],
+        radius: &[f64],
+        carrying: &[bool],
+        taken_out: &[bool],
+    ) -> Chain {
         if !carrying.iter().any(|&c| c) {
             return Chain::default();
         }
@@ -122,7 +130,8 @@ impl Membrane {
                 // sample on the left.
                 let along = [-outward[1], outward[0]];
                 let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-                for (p, r) in position.iter().zip(radius) {
+                let kept = position.iter().zip(radius).zip(taken_out);
+                for ((p, r), _) in kept.filter(|(_, &out)| !out) {
                     lo = lo.min(dot(*p, along) - r);
                     hi = hi.max(dot(*p, along) + r);
                 }
@@ -323,7 +332,12 @@ mod tests {
         let left = membrane(MembraneShape::Side {
             outward: [-1.0, 0.0],
         });
-        let chain = left.chain(&position, &radius, &vec![true; radius.len()]);
+        let chain = left.chain(
+            &position,
+            &radius,
+            &vec![true; radius.len()],
+            &vec![false; radius.len()],
+        );
         // Left column, walked downwards (sample on the left of the walk).
         assert_eq!(chain.grains, vec![20, 15, 10, 5, 0]);
         assert_eq!(chain.extent, [-9.0, 1.0]);
@@ -343,7 +357,12 @@ mod tests {
         let left = membrane(MembraneShape::Side {
             outward: [-1.0, 0.0],
         });
-        let chain = left.chain(&position, &radius, &vec![true; radius.len()]);
+        let chain = left.chain(
+            &position,
+            &radius,
+            &vec![true; radius.len()],
+            &vec![false; radius.len()],
+        );
         assert!(chain.grains.contains(&10));
         // The probe (two radii) does not reach between 10 and 0 to touch 5.
         assert!(!chain.grains.contains(&5), "{:?}", chain.grains);
@@ -356,7 +375,7 @@ mod tests {
         // Grain 2 on the bottom edge is loose: the chain bridges it, onto its neighbours.
         let mut carrying = vec![true; radius.len()];
         carrying[2] = false;
-        let chain = ring.chain(&position, &radius, &carrying);
+        let chain = ring.chain(&position, &radius, &carrying, &vec![false; radius.len()]);
         assert!(!chain.grains.contains(&2), "{:?}", chain.grains);
         let at = chain.grains.iter().position(|&g| g == 1).expect("grain 1");
         assert_eq!(chain.grains[(at + 1) % chain.grains.len()], 3);
@@ -366,7 +385,12 @@ mod tests {
     fn a_ring_goes_round_anticlockwise_and_pushes_inward() {
         let (position, radius) = square(6);
         let ring = membrane(MembraneShape::Ring { center: [5.0, 5.0] });
-        let chain = ring.chain(&position, &radius, &vec![true; radius.len()]);
+        let chain = ring.chain(
+            &position,
+            &radius,
+            &vec![true; radius.len()],
+            &vec![false; radius.len()],
+        );
         // The 20 grains of the outer square, once each.
         assert_eq!(chain.grains.len(), 20);
         let mut sorted = chain.grains.clone();

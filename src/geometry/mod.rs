@@ -27,6 +27,10 @@ pub struct GrainSet {
     pub rotation: Vec<f64>,
     /// Radii `r_i` (m).
     pub radius: Vec<f64>,
+    /// Whether each grain has been taken out of the sample (a cluster broken out of it, see
+    /// [`crate::simulation::Simulation::take_out`]): it keeps its row and stays where it was
+    /// taken out, but touches nothing, carries nothing and is not measured.
+    pub taken_out: Vec<bool>,
 }
 
 impl GrainSet {
@@ -39,6 +43,7 @@ impl GrainSet {
             displacement: vec![[0.0; 2]; n],
             rotation: vec![0.0; n],
             radius,
+            taken_out: vec![false; n],
         }
     }
 
@@ -54,12 +59,14 @@ impl GrainSet {
             .zip(&displacement)
             .map(|(o, d)| [o[0] + d[0], o[1] + d[1]])
             .collect();
+        let n = radius.len();
         GrainSet {
             position,
             origin,
             displacement,
             rotation,
             radius,
+            taken_out: vec![false; n],
         }
     }
 
@@ -99,9 +106,28 @@ impl GrainSet {
         self.radius.is_empty()
     }
 
-    /// Mean radius.
+    /// The grains still in the sample (not taken out), in order.
+    pub fn in_sample(&self) -> impl Iterator<Item = usize> + '_ {
+        (0..self.len()).filter(|&g| !self.taken_out[g])
+    }
+
+    /// Mean radius (of every grain, those taken out too: it sets the solver's length scale,
+    /// which must not change as grains are taken out).
     pub fn mean_radius(&self) -> f64 {
         self.radius.iter().sum::<f64>() / self.len().max(1) as f64
+    }
+
+    /// Extent along `direction` of the grains in the sample, centred at `position` (theirs,
+    /// or where an iterate has them) (m).
+    pub fn extent_along(&self, position: &[[f64; 2]], direction: [f64; 2]) -> f64 {
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for g in self.in_sample() {
+            let (p, r) = (position[g], self.radius[g]);
+            let s = p[0] * direction[0] + p[1] * direction[1];
+            lo = lo.min(s - r);
+            hi = hi.max(s + r);
+        }
+        (hi - lo).max(0.0)
     }
 
     /// Smallest axis-aligned box around all grains: `[xmin, ymin, xmax, ymax]`.
@@ -320,17 +346,6 @@ impl Wall {
     }
 }
 
-/// Extent of grains at `position` with `radius` along `direction` (m).
-pub fn extent_along(position: &[[f64; 2]], radius: &[f64], direction: [f64; 2]) -> f64 {
-    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-    for (p, r) in position.iter().zip(radius) {
-        let s = p[0] * direction[0] + p[1] * direction[1];
-        lo = lo.min(s - r);
-        hi = hi.max(s + r);
-    }
-    (hi - lo).max(0.0)
-}
-
 /// The walls, with the area they enclose.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct WallSet {
@@ -385,7 +400,7 @@ impl WallSet {
     pub fn loaded_length(&self, w: usize, grains: &GrainSet) -> f64 {
         match self.length(w) {
             Some(l) => l,
-            None => extent_along(&grains.position, &grains.radius, self.walls[w].tangent()),
+            None => grains.extent_along(&grains.position, self.walls[w].tangent()),
         }
     }
 

@@ -34,14 +34,14 @@ pub struct Measurements {
     pub grain_contacts: usize,
     /// Grain-wall contacts.
     pub wall_contacts: usize,
-    /// Grain-grain contacts per grain (`2 n_c / n_g`).
+    /// Grain-grain contacts per grain (`2 n_c / n_g`, `n_g` the grains in the sample).
     pub contacts_per_grain: f64,
     /// Bonds intact.
     pub bonds: usize,
     /// Bonds broken so far.
     pub broken_bonds: usize,
-    /// Mean rotation of all grains since their origin (rad, anticlockwise); rattlers, which
-    /// the solver leaves where they are, count with the rotation they have.
+    /// Mean rotation of the grains in the sample since their origin (rad, anticlockwise);
+    /// rattlers, which the solver leaves where they are, count with the rotation they have.
     pub mean_rotation: f64,
     /// Mean of the grains' absolute rotations (rad): rolling both ways, which cancels in
     /// [`Measurements::mean_rotation`].
@@ -72,7 +72,8 @@ pub struct MembraneBoundary<'a> {
     pub chains: &'a [Chain],
 }
 
-/// Measure a converged state, with the stress in each of `regions`.
+/// Measure a converged state, with the stress in each of `regions`. Grains taken out of the
+/// sample have no contacts and lie in no region; they count in no mean.
 ///
 /// A grain glued to a wall is a part of it: its contacts with that wall and with grains
 /// glued to the same wall are the glue, which carries nothing measured, and the forces of
@@ -103,7 +104,11 @@ pub fn measure(
     };
     let members: Vec<Vec<bool>> = regions
         .iter()
-        .map(|r| grains.position.iter().map(|&p| r.contains(p)).collect())
+        .map(|r| {
+            (grains.position.iter().zip(&grains.taken_out))
+                .map(|(&p, &out)| !out && r.contains(p))
+                .collect()
+        })
         .collect();
     let mut region_sums = vec![[[0.0; 2]; 2]; regions.len()];
     // Add `u F` of grain `g` to the sums of the regions it lies in.
@@ -115,7 +120,7 @@ pub fn measure(
         }
     };
     let glued = contacts.glued(grains.len());
-    let mut glue = DofMap::new(grains.len(), false, walls, &glued);
+    let mut glue = DofMap::new(grains.len(), false, walls, &glued, &grains.taken_out);
     glue.follow(grains, walls, &vec![0.0; walls.len()]);
     let mut sum = [[0.0; 2]; 2];
     for c in &contacts.contacts {
@@ -211,9 +216,10 @@ pub fn measure(
             sum / count.max(1) as f64
         })
         .collect();
-    let n = grains.len().max(1) as f64;
-    m.mean_rotation = grains.rotation.iter().sum::<f64>() / n;
-    m.mean_absolute_rotation = grains.rotation.iter().map(|r| r.abs()).sum::<f64>() / n;
+    let n = grains.in_sample().count().max(1) as f64;
+    let rotations = || grains.in_sample().map(|g| grains.rotation[g]);
+    m.mean_rotation = rotations().sum::<f64>() / n;
+    m.mean_absolute_rotation = rotations().map(f64::abs).sum::<f64>() / n;
     m.broken_bonds = contacts.broken_bonds.len();
     m.volume = enclosed_area(grains, walls, boundary).map_or(f64::NAN, |a| a * depth);
     m.macro_stress = sum.map(|row| row.map(|s| s / m.volume));
@@ -226,7 +232,7 @@ pub fn measure(
     m.wall_shear_stress = (0..walls.len())
         .map(|w| m.wall_shear_force[w] / length[w])
         .collect();
-    m.contacts_per_grain = 2.0 * m.grain_contacts as f64 / grains.len().max(1) as f64;
+    m.contacts_per_grain = 2.0 * m.grain_contacts as f64 / n;
     m
 }
 

@@ -1,13 +1,27 @@
 //! HDF5 helpers shared by the result file and the sample file: attributes, datasets written
-//! chunked and compressed when large, read back with their shapes checked, and an internal
-//! failure type that becomes an input error (reading a file the user gave) or an I/O error
-//! (writing).
+//! chunked and compressed when large or plain when written at every increment, read back
+//! with their shapes checked, and an internal failure type that becomes an input error
+//! (reading a file the user gave) or an I/O error (writing).
+//!
+//! Attributes, plain datasets and the rows of growable ones, which every increment writes,
+//! go to libhdf5 directly with its default property lists: the crate's builders make three
+//! property lists and two datatypes for each, which took twice as long as the write itself.
 
 use crate::{Error, InputError};
 use hdf5::types::VarLenUnicode;
-use hdf5::{Dataset, Group, H5Type, Location};
+use hdf5::{h5check, Dataset, Datatype, Group, H5Type, Location};
+use hdf5_sys::h5::hsize_t;
+use hdf5_sys::h5a::{H5Acreate2, H5Aexists, H5Aopen, H5Awrite};
+use hdf5_sys::h5d::{H5Dcreate2, H5Dget_space, H5Dopen2, H5Dset_extent, H5Dwrite};
+use hdf5_sys::h5i::{hid_t, H5Idec_ref};
+use hdf5_sys::h5p::H5P_DEFAULT;
+use hdf5_sys::h5s::{
+    H5S_seloper_t, H5Screate, H5Screate_simple, H5Sselect_hyperslab, H5S_ALL, H5S_SCALAR,
+};
 use ndarray::{ArrayView, ArrayView1};
+use std::ffi::CString;
 use std::path::Path;
+use std::ptr::null;
 use std::str::FromStr;
 
 /// Datasets with fewer elements than this are stored plain: filters on tiny data only cost.
@@ -143,11 +157,28 @@ pub(crate) fn read_in_child(path: &Path, read: impl FnOnce() -> bool) -> Result<
 
 /// Set a scalar attribute, writing over an existing one.
 pub(crate) fn set_attr<T: H5Type>(loc: &Location, name: &str, value: &T) -> R<()> {
-    match loc.attr(name) {
-        Ok(a) => a.write_scalar(value)?,
-        Err(_) => loc.new_attr::<T>().create(name)?.write_scalar(value)?,
-    }
-    Ok(())
+    let dtype = Datatype::from_type::<T>()?;
+    let c_name = c_name(name)?;
+    hdf5::sync::sync(|| {
+        // SAFETY: the ids are valid while `loc` and `dtype` live; `value` is one `T`.
+        unsafe {
+            let attr = if h5check(H5Aexists(loc.id(), c_name.as_ptr()))? > 0 {
+                Handle::new(H5Aopen(loc.id(), c_name.as_ptr(), H5P_DEFAULT))?
+            } else {
+                let space = Handle::new(H5Screate(H5S_SCALAR))?;
+                Handle::new(H5Acreate2(
+                    loc.id(),
+                    c_name.as_ptr(),
+                    dtype.id(),
+                    space.0,
+                    H5P_DEFAULT,
+                    H5P_DEFAULT,
+                ))?
+            };
+            h5check(H5Awrite(attr.0, dtype.id(), (value as *const T).cast()))?;
+        }
+        Ok(())
+    })
 }
 
 pub(crate) fn set_str_attr(loc: &Location, name: &str, value: &str) -> R<()> {
@@ -196,6 +227,113 @@ pub(crate) fn put<T: H5Type, D: ndarray::Dimension>(
         builder.with_data(data).create(name)?;
     }
     Ok(())
+}
+
+/// Write a dataset plain (contiguous, unfiltered): for the data written at every increment,
+/// which compression would take longer to write than the solver takes to compute.
+pub(crate) fn put_plain<T: H5Type + Clone, D: ndarray::Dimension>(
+    g: &Group,
+    name: &str,
+    data: ArrayView<T, D>,
+) -> R<()> {
+    let data = data.as_standard_layout();
+    let dims: Vec<hsize_t> = data.shape().iter().map(|&n| n as hsize_t).collect();
+    let dtype = Datatype::from_type::<T>()?;
+    let c_name = c_name(name)?;
+    hdf5::sync::sync(|| {
+        // SAFETY: the ids are valid while `g` and `dtype` live; `data` is contiguous, of
+        // shape `dims`.
+        unsafe {
+            let space = Handle::new(H5Screate_simple(dims.len() as _, dims.as_ptr(), null()))?;
+            let ds = Handle::new(H5Dcreate2(
+                g.id(),
+                c_name.as_ptr(),
+                dtype.id(),
+                space.0,
+                H5P_DEFAULT,
+                H5P_DEFAULT,
+                H5P_DEFAULT,
+            ))?;
+            h5check(H5Dwrite(
+                ds.0,
+                dtype.id(),
+                H5S_ALL,
+                H5S_ALL,
+                H5P_DEFAULT,
+                data.as_ptr().cast(),
+            ))?;
+        }
+        Ok(())
+    })
+}
+
+/// Write `values` as row `row` of a growable dataset `name` of `g`, growing it to `row + 1`
+/// rows: a table of `values.len()` columns, or a column (one value a row) when not `table`.
+pub(crate) fn put_row<T: H5Type>(
+    g: &Group,
+    name: &str,
+    row: usize,
+    values: &[T],
+    table: bool,
+) -> R<()> {
+    let dtype = Datatype::from_type::<T>()?;
+    let c_name = c_name(name)?;
+    let (row, width) = (row as hsize_t, values.len() as hsize_t);
+    let (size, start, count) = match table {
+        true => (vec![row + 1, width], vec![row, 0], vec![1, width]),
+        false => (vec![row + 1], vec![row], vec![1]),
+    };
+    hdf5::sync::sync(|| {
+        // SAFETY: the ids are valid while `g` and `dtype` live; `values` is the `count` of
+        // the selection.
+        unsafe {
+            let ds = Handle::new(H5Dopen2(g.id(), c_name.as_ptr(), H5P_DEFAULT))?;
+            h5check(H5Dset_extent(ds.0, size.as_ptr()))?;
+            if values.is_empty() {
+                return Ok(());
+            }
+            let file_space = Handle::new(H5Dget_space(ds.0))?;
+            h5check(H5Sselect_hyperslab(
+                file_space.0,
+                H5S_seloper_t::H5S_SELECT_SET,
+                start.as_ptr(),
+                null(),
+                count.as_ptr(),
+                null(),
+            ))?;
+            let memory = Handle::new(H5Screate_simple(count.len() as _, count.as_ptr(), null()))?;
+            h5check(H5Dwrite(
+                ds.0,
+                dtype.id(),
+                memory.0,
+                file_space.0,
+                H5P_DEFAULT,
+                values.as_ptr().cast(),
+            ))?;
+        }
+        Ok(())
+    })
+}
+
+/// An identifier made by a direct libhdf5 call, let go when dropped.
+struct Handle(hid_t);
+
+impl Handle {
+    /// The identifier a call returned, or the library's error.
+    fn new(id: hid_t) -> R<Handle> {
+        Ok(Handle(h5check(id)?))
+    }
+}
+
+impl Drop for Handle {
+    fn drop(&mut self) {
+        // SAFETY: an identifier of ours, given up once.
+        unsafe { H5Idec_ref(self.0) };
+    }
+}
+
+fn c_name(name: &str) -> R<CString> {
+    CString::new(name).map_err(|_| Fail(format!("name {name:?} holds a NUL")))
 }
 
 pub(crate) fn put_strings(g: &Group, name: &str, values: &[String]) -> R<()> {

@@ -4,11 +4,19 @@
 //! A run killed at any moment must leave a file that opens and can be resumed. HDF5 updates
 //! its metadata in place and reuses space it freed, so a process killed in the middle of a
 //! write, even one followed by a flush, can leave a file that no longer opens or whose
-//! compressed chunks no longer inflate. So the file is never written where it lies: every
-//! change (the header, each increment, the summary, the tidying on resume) is made to a copy
-//! beside it (`NAME.h5.writing`), flushed and closed there, and the copy is then renamed over
-//! the file. The rename is atomic, so at every moment `NAME.h5` is the file as it was after one
-//! whole change. Each increment is still written into its own group with its `complete`
+//! compressed chunks no longer inflate. So the file is never written where it lies. Beside it
+//! lies its twin (`NAME.h5.writing`), a second copy of the same file: every change (each
+//! increment, the summary, the tidying on resume) is made to the twin, which is flushed,
+//! closed and swapped with the file in one atomic rename (`renameat2`'s `RENAME_EXCHANGE`).
+//! A new file is written whole beside it and renamed over it. The old file, now the twin, is then given the same change on another
+//! thread while the run goes on, so the two are equal again by the next change. At every
+//! moment `NAME.h5` is the file as it was after one whole change, and no change copies the
+//! file (copying the whole file at every increment made writing one cost as much as all
+//! before it): the file is copied only to make a twin not known to be equal, at a run's
+//! first change, after a failed change, or when a reader still holds the twin open (HDF5's
+//! file lock tells). Where the file system cannot exchange two files, the twin is renamed over
+//! the file and made again at the next change. The twin is deleted when the [`ResultFile`]
+//! is dropped. Each increment is still written into its own group with its `complete`
 //! attribute set last, and on resume every group without it is deleted (files written before
 //! this scheme). Every value a [`State`] holds is stored
 //! exactly (f64 as f64, indices as i64), so a resumed run repeats the uninterrupted one bit
@@ -18,6 +26,7 @@
 mod group;
 mod header;
 mod history;
+mod info;
 
 use group::{per_wall, read_group_state, write_group_state};
 use header::{read_header, read_regions, write_header};
@@ -27,18 +36,22 @@ use history::{
     NEGATIVE_PIVOTS,
 };
 pub use history::{read_history, History};
+pub use info::info;
 
+use std::ffi::CString;
 use std::fmt::Write as _;
+use std::os::unix::ffi::OsStrExt;
 use std::path::{Path, PathBuf};
+use std::thread::JoinHandle;
 
 use hdf5::types::VarLenUnicode;
 use hdf5::{Extent, File, Group, H5Type};
-use ndarray::{s, Array1, ArrayView1, ArrayView2};
+use ndarray::{s, Array1, Array2, ArrayView1, ArrayView2};
 
 use super::h5::{
-    dataset, get_attr, get_count, get_str_attr, input_error, put, put_strings, put_text,
-    read_error, read_in_child, read_rows, read_vec, require_format, set_attr, set_str_attr,
-    write_error, Fail, R,
+    dataset, get_attr, get_count, get_str_attr, input_error, put, put_plain, put_row, put_strings,
+    put_text, read_error, read_in_child, read_rows, read_vec, require_format, set_attr,
+    set_str_attr, write_error, Fail, R,
 };
 use crate::contact::{BreakMode, BrokenBond, Contact, ContactParams, ContactSet, Response};
 use crate::error::Error;
@@ -47,7 +60,7 @@ use crate::geometry::{
 };
 use crate::measure::Region;
 use crate::solver::stats::{Counters, SolverStats, StageTimers};
-use crate::state::{IncrementReport, State};
+use crate::state::{Breakout, IncrementReport, State};
 
 /// Value of the root attribute `format`: tells our files from other HDF5 files.
 pub const FORMAT: &str = "grainstat-result";
@@ -151,16 +164,30 @@ impl RunHeader {
     }
 }
 
-/// A result file being written. No HDF5 handle stays open between changes: each one is made
-/// to a copy and renamed over the file (see the module's notes).
+/// A result file being written. No HDF5 handle to it stays open between changes: each one is
+/// made to the twin, which is then swapped in (see the module's notes).
 #[derive(Debug)]
 pub struct ResultFile {
     path: PathBuf,
-    grains: usize,
-    walls: usize,
-    membranes: usize,
-    regions: usize,
+    sizes: Sizes,
     history_rows: usize,
+    twin: Twin,
+}
+
+/// What a result file was made for, which every increment written to it must fit.
+#[derive(Debug, Clone, Copy)]
+struct Sizes {
+    grains: usize,
+    widths: Widths,
+}
+
+/// Where the twin stands between changes.
+#[derive(Debug)]
+enum Twin {
+    /// Not known to hold the file as it is: the next change copies the file first.
+    Stale,
+    /// Being given the file's last change on another thread; in step once that returns true.
+    CatchingUp(JoinHandle<bool>),
 }
 
 impl ResultFile {
@@ -184,14 +211,13 @@ impl ResultFile {
             Ok(())
         };
         make().map_err(write_error(path))?;
-        close_and_rename(file, &side, path)?;
+        close(file, &side)?;
+        std::fs::rename(&side, path).map_err(|e| Error::io(path.display(), e))?;
         Ok(ResultFile {
             path: path.to_path_buf(),
-            grains: header.radius.len(),
-            walls: header.walls.len(),
-            membranes: header.membranes.len(),
-            regions: header.regions.len(),
+            sizes: Sizes::of(header),
             history_rows: 0,
+            twin: Twin::Stale,
         })
     }
 
@@ -202,47 +228,28 @@ impl ResultFile {
         path: impl AsRef<Path>,
     ) -> Result<(ResultFile, RunHeader, State), Error> {
         let path = path.as_ref();
-        // All of it in a child process first, with a trial write of the state resumed from
-        // to a copy that is then dropped: libhdf5 can crash or hang on a corrupt file, and
+        // All of it in a child process first, on a copy that is then dropped, with a trial
+        // write of the state resumed from: libhdf5 can crash or hang on a corrupt file, and
         // may meet the corruption only when it writes (see `read_in_child`).
         read_in_child(path, || {
-            let probe = ResultFile::tidied(path, &side_path(path)).and_then(|(out, _, state)| {
-                out.edit_copy(&out.path, read_error(path), |file| {
-                    let report = IncrementReport::default();
-                    let rows = out.history_rows;
-                    out.try_write_increment(file, rows, &state, &report, &SolverStats::default())
-                        .map(drop)
-                })
-            });
-            let _ = std::fs::remove_file(side_path(&side_path(path)));
-            let _ = std::fs::remove_file(side_path(path));
-            probe.is_ok()
+            let probe = side_path(path);
+            let written = fresh_copy(path, &probe).is_ok() && probe_resume(&probe).is_ok();
+            let _ = std::fs::remove_file(&probe);
+            written
         })?;
-        ResultFile::tidied(path, path)
-    }
-
-    /// The file at `path` for resuming, written to `to`: incomplete groups and their history
-    /// rows deleted.
-    fn tidied(path: &Path, to: &Path) -> Result<(ResultFile, RunHeader, State), Error> {
         // Read-only first: a file that is not a whole result file is bad input, and is left
         // as it is.
         let (header, state, incomplete, keep) = read_for_resume(path)?;
-        let widths = Widths::of(&header);
-        let out = ResultFile {
-            path: to.to_path_buf(),
-            grains: header.radius.len(),
-            walls: widths.walls,
-            membranes: widths.membranes,
-            regions: widths.regions,
+        let mut out = ResultFile {
+            path: path.to_path_buf(),
+            sizes: Sizes::of(&header),
             history_rows: keep,
+            twin: Twin::Stale,
         };
+        let widths = out.sizes.widths;
         // The file read whole, but deleting in it may still find it corrupt: bad input too.
-        out.edit_copy(path, read_error(path), |file| {
-            let inc = file.group("increments")?;
-            for name in &incomplete {
-                inc.unlink(name)?;
-            }
-            truncate_history(&file.group("history")?, keep, widths)
+        out.change(read_error(path), move |file| {
+            tidy(file, &incomplete, keep, widths)
         })?;
         Ok((out, header, state))
     }
@@ -250,14 +257,6 @@ impl ResultFile {
     /// The file's path.
     pub fn path(&self) -> &Path {
         &self.path
-    }
-
-    fn widths(&self) -> Widths {
-        Widths {
-            walls: self.walls,
-            membranes: self.membranes,
-            regions: self.regions,
-        }
     }
 
     /// Write a converged (committed) state with its report as group
@@ -270,68 +269,99 @@ impl ResultFile {
         report: &IncrementReport,
         stats: &SolverStats,
     ) -> Result<(), Error> {
-        let mut rows = self.history_rows;
-        self.change(|file| {
-            rows = self.try_write_increment(file, rows, state, report, stats)?;
-            Ok(())
+        let (sizes, rows, path) = (self.sizes, self.history_rows, self.path.clone());
+        // Owned: the twin is given the same change on another thread.
+        let (state, report, stats) = (state.clone(), report.clone(), *stats);
+        self.history_rows = self.change(write_error(&path), move |file| {
+            sizes.write_increment(file, rows, &state, &report, &stats)
         })?;
-        self.history_rows = rows;
         Ok(())
     }
 
     /// Write the solver's timers and counters as attributes of `/summary`, replacing the
     /// last ones.
     pub fn write_summary(&mut self, stats: &SolverStats) -> Result<(), Error> {
-        self.change(|file| write_summary_group(file, stats))
+        let (path, stats) = (self.path.clone(), *stats);
+        self.change(write_error(&path), move |file| {
+            write_summary_group(file, &stats)
+        })
     }
 
-    /// Make one change to the file: to a copy beside it, flushed, closed and renamed over
-    /// it. Killed at any moment, the file is as it was before the change or after it.
-    fn change(&self, write: impl FnOnce(&File) -> R<()>) -> Result<(), Error> {
-        self.edit_copy(&self.path, write_error(&self.path), write)
-    }
-
-    /// Make one change to the file at `from` and put the result at this file's path: the
-    /// change is made to a copy beside that (`side_path`), flushed, closed and renamed over
-    /// it. HDF5's failures become errors by `blame`.
-    fn edit_copy(
-        &self,
-        from: &Path,
+    /// Make one change to the file, `write`, and return what it returns: made to the twin,
+    /// which is swapped with the file and then given the same change on another thread, to
+    /// be done by the next change (see the module's notes). Killed at any moment, the file is
+    /// as it was before the change or after it. HDF5's failures become errors by `blame`.
+    fn change<T>(
+        &mut self,
         blame: impl FnOnce(Fail) -> Error,
-        write: impl FnOnce(&File) -> R<()>,
-    ) -> Result<(), Error> {
-        let side = side_path(&self.path);
-        std::fs::copy(from, &side).map_err(|e| Error::io(side.display(), e))?;
-        let file = File::open_rw(&side).map_err(|e| Error::io(side.display(), e))?;
-        if let Err(fail) = write(&file) {
-            drop(file);
-            // The file itself is untouched; the half-changed copy is of no use.
-            let _ = std::fs::remove_file(&side);
-            return Err(blame(fail));
+        write: impl Fn(&File) -> R<T> + Send + 'static,
+    ) -> Result<T, Error> {
+        let twin = side_path(&self.path);
+        let in_step = match std::mem::replace(&mut self.twin, Twin::Stale) {
+            Twin::Stale => false,
+            Twin::CatchingUp(done) => done.join().unwrap_or(false),
+        };
+        // A twin that a reader still holds open does not open for writing.
+        let file = match in_step.then(|| File::open_rw(&twin).ok()).flatten() {
+            Some(file) => file,
+            None => {
+                fresh_copy(&self.path, &twin)?;
+                File::open_rw(&twin).map_err(|e| Error::io(twin.display(), e))?
+            }
+        };
+        // On failure the file itself is untouched; the half-changed twin is made again.
+        let value = write(&file).map_err(blame)?;
+        close(file, &twin)?;
+        if swap(&twin, &self.path)? {
+            let catch_up = std::thread::Builder::new().spawn(move || {
+                File::open_rw(&twin)
+                    .is_ok_and(|file| write(&file).is_ok() && close(file, &twin).is_ok())
+            });
+            // No thread to be had: the next change starts from a copy.
+            if let Ok(done) = catch_up {
+                self.twin = Twin::CatchingUp(done);
+            }
         }
-        close_and_rename(file, &side, &self.path)
+        Ok(value)
+    }
+}
+
+impl Drop for ResultFile {
+    /// The twin is of no use once the file is no longer written.
+    fn drop(&mut self) {
+        if let Twin::CatchingUp(done) = std::mem::replace(&mut self.twin, Twin::Stale) {
+            let _ = done.join();
+        }
+        let _ = std::fs::remove_file(side_path(&self.path));
+    }
+}
+
+impl Sizes {
+    fn of(header: &RunHeader) -> Sizes {
+        Sizes {
+            grains: header.radius.len(),
+            widths: Widths::of(header),
+        }
     }
 
     /// Write one increment into `file` whose `/history` has `rows` rows; the rows after.
-    fn try_write_increment(
-        &self,
+    fn write_increment(
+        self,
         file: &File,
         mut rows: usize,
         state: &State,
         report: &IncrementReport,
         stats: &SolverStats,
     ) -> R<usize> {
-        if state.grains.len() != self.grains || state.walls.len() != self.walls {
+        let (n, walls) = (self.grains, self.widths.walls);
+        if state.grains.len() != n || state.walls.len() != walls {
             return Err(Fail(format!(
-                "the state has {} grains and {} walls, the file was created for {} and {}",
+                "the state has {} grains and {} walls, the file was created for {n} and {walls}",
                 state.grains.len(),
                 state.walls.len(),
-                self.grains,
-                self.walls
             )));
         }
         let g = &state.grains;
-        let n = self.grains;
         if g.position.len() != n
             || g.origin.len() != n
             || g.displacement.len() != n
@@ -353,11 +383,11 @@ impl ResultFile {
         if inc.link_exists(&name) {
             inc.unlink(&name)?;
             rows = leading_rows(&history, |j| j < k as i64)?;
-            truncate_history(&history, rows, self.widths())?;
+            truncate_history(&history, rows, self.widths)?;
         }
         let g = inc.create_group(&name)?;
         write_group_state(&g, state, report)?;
-        append_history(&history, rows, self.widths(), state, report)?;
+        append_history(&history, rows, self.widths, state, report)?;
         let pivots = report.negative_pivots.map_or(-1, |n| n as i64);
         append_scalar(&history, NEGATIVE_PIVOTS, rows, pivots)?;
         write_summary_group(file, stats)?;
@@ -365,6 +395,30 @@ impl ResultFile {
         set_attr(&g, "complete", &1u8)?;
         Ok(rows + 1)
     }
+}
+
+/// Delete the `incomplete` groups and the history rows after the first `keep`.
+fn tidy(file: &File, incomplete: &[String], keep: usize, widths: Widths) -> R<()> {
+    let inc = file.group("increments")?;
+    for name in incomplete {
+        inc.unlink(name)?;
+    }
+    truncate_history(&file.group("history")?, keep, widths)
+}
+
+/// What resuming makes of the file at `path`, done to it in place: tidied, and the state
+/// resumed from written again.
+fn probe_resume(path: &Path) -> Result<(), Error> {
+    let (header, state, incomplete, keep) = read_for_resume(path)?;
+    let sizes = Sizes::of(&header);
+    let file = File::open_rw(path).map_err(|e| Error::io(path.display(), e))?;
+    tidy(&file, &incomplete, keep, sizes.widths)
+        .and_then(|()| {
+            let report = IncrementReport::default();
+            sizes.write_increment(&file, keep, &state, &report, &SolverStats::default())
+        })
+        .map_err(read_error(path))?;
+    close(file, path)
 }
 
 /// What resuming from `path` needs: the header, the state of the last complete increment,
@@ -403,21 +457,57 @@ fn read_for_resume(path: &Path) -> Result<(RunHeader, State, Vec<String>, usize)
     Ok((header, state, incomplete, keep))
 }
 
-/// Where changes to the result file `path` are made before they replace it: `NAME.h5.writing`
-/// beside `NAME.h5`. A run killed while changing the file leaves it there; the next change
-/// writes over it.
+/// The twin of the result file `path`, to which its changes are made before it replaces it:
+/// `NAME.h5.writing` beside `NAME.h5`. A run killed while changing the file leaves it there;
+/// the next run writes over it.
 pub fn side_path(path: &Path) -> PathBuf {
     let mut name = path.as_os_str().to_owned();
     name.push(".writing");
     PathBuf::from(name)
 }
 
-/// Flush and close the changed copy `side`, then rename it over `path`.
-fn close_and_rename(file: File, side: &Path, path: &Path) -> Result<(), Error> {
+/// Copy `from` to `to` as a new file: the file `to` names may be held open by a reader, who
+/// must not see it written over.
+fn fresh_copy(from: &Path, to: &Path) -> Result<(), Error> {
+    match std::fs::remove_file(to) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+            return Err(Error::io(to.display(), e));
+        }
+        _ => {}
+    }
+    std::fs::copy(from, to).map_err(|e| Error::io(to.display(), e))?;
+    Ok(())
+}
+
+/// Flush and close a changed file.
+fn close(file: File, path: &Path) -> Result<(), Error> {
     file.flush()
         .and_then(|()| file.close())
-        .map_err(|e| Error::io(side.display(), e))?;
-    std::fs::rename(side, path).map_err(|e| Error::io(path.display(), e))
+        .map_err(|e| Error::io(path.display(), e))
+}
+
+/// Put `twin` at `path` in one atomic step: exchanged with the file there, which becomes the
+/// twin (true), or, where they cannot be exchanged (a file system without it, no file at
+/// `path`), renamed over it (false).
+fn swap(twin: &Path, path: &Path) -> Result<bool, Error> {
+    let c_path = |p: &Path| CString::new(p.as_os_str().as_bytes());
+    let exchanged = match (c_path(twin), c_path(path)) {
+        // SAFETY: two NUL-terminated paths, only read.
+        (Ok(a), Ok(b)) => unsafe {
+            libc::renameat2(
+                libc::AT_FDCWD,
+                a.as_ptr(),
+                libc::AT_FDCWD,
+                b.as_ptr(),
+                libc::RENAME_EXCHANGE,
+            ) == 0
+        },
+        _ => false,
+    };
+    if !exchanged {
+        std::fs::rename(twin, path).map_err(|e| Error::io(path.display(), e))?;
+    }
+    Ok(exchanged)
 }
 
 /// The increments written completely to a result file, in order.
@@ -466,149 +556,6 @@ pub fn read_summary(path: impl AsRef<Path>) -> Result<Option<SolverStats>, Error
     read_summary_group(&file).map_err(read_error(path))
 }
 
-/// A human summary of a result file, for `grainstat info`.
-pub fn info(path: impl AsRef<Path>) -> Result<String, Error> {
-    let path = path.as_ref();
-    read_in_child(path, || summarise(path).is_ok())?;
-    summarise(path)
-}
-
-fn summarise(path: &Path) -> Result<String, Error> {
-    let file = open_existing(path)?;
-    let text = || -> R<String> {
-        let header = read_header(&file)?;
-        let inc = file.group("increments")?;
-        let groups = increment_groups(&inc)?;
-        let complete: Vec<usize> = groups.iter().filter(|g| g.2).map(|g| g.0).collect();
-        let mut out = String::new();
-        let w = &mut out;
-        let _ = writeln!(w, "file        {}", path.display());
-        let _ = writeln!(
-            w,
-            "scene       {} (grainstat {}, {} law{})",
-            header.scene_name,
-            header.version,
-            header.law,
-            if header.fixed_rotations {
-                ", rotations fixed"
-            } else {
-                ""
-            }
-        );
-        let _ = writeln!(
-            w,
-            "grains      {} (radius {:.4e} .. {:.4e} m), depth {:.4e} m",
-            header.radius.len(),
-            header.radius.iter().cloned().fold(f64::INFINITY, f64::min),
-            header
-                .radius
-                .iter()
-                .cloned()
-                .fold(f64::NEG_INFINITY, f64::max),
-            header.depth
-        );
-        let walls: Vec<String> = header
-            .walls
-            .iter()
-            .map(|h| format!("{} ({})", h.name, control_name(h.control)))
-            .collect();
-        let _ = writeln!(w, "walls       {}: {}", walls.len(), walls.join(", "));
-        match (complete.first(), complete.last()) {
-            (Some(first), Some(last)) => {
-                let _ = writeln!(
-                    w,
-                    "increments  {} written, {} .. {}",
-                    complete.len(),
-                    first,
-                    last
-                );
-            }
-            _ => {
-                let _ = writeln!(w, "increments  none complete");
-            }
-        }
-        let incomplete = groups.len() - complete.len();
-        if incomplete > 0 {
-            let _ = writeln!(w, "            {incomplete} incomplete (removed on resume)");
-        }
-        if let Some(&last) = complete.last() {
-            let g = inc.group(&group_name(last))?;
-            let _ = writeln!(
-                w,
-                "\nincrement {} (stage {}, increment {} of the stage)",
-                last,
-                get_attr::<i64>(&g, "stage")?,
-                get_attr::<i64>(&g, "stage_increment")?
-            );
-            let position = read_vec::<f64>(&g, "walls/position", Some(header.walls.len()))?;
-            let applied = read_vec::<f64>(&g, "walls/stress", Some(header.walls.len()))?;
-            let measured = read_vec::<f64>(&g, "walls/measured_stress", Some(header.walls.len()))?;
-            let _ = writeln!(
-                w,
-                "  {:<12} {:>14} {:>16} {:>16}",
-                "wall", "position [m]", "applied [Pa]", "measured [Pa]"
-            );
-            for (k, h) in header.walls.iter().enumerate() {
-                let _ = writeln!(
-                    w,
-                    "  {:<12} {:>14.6e} {:>16.6e} {:>16.6e}",
-                    h.name, position[k], applied[k], measured[k]
-                );
-            }
-            let sigma = read_rows::<f64, 2>(&g, "macro_stress", Some(2))?;
-            let _ = writeln!(
-                w,
-                "  macro stress [Pa]  xx {:.6e}  yy {:.6e}  xy {:.6e}  yx {:.6e}",
-                sigma[0][0], sigma[1][1], sigma[0][1], sigma[1][0]
-            );
-            let _ = writeln!(
-                w,
-                "  volume [m^3]       {:.6e}",
-                get_attr::<f64>(&g, "volume")?
-            );
-            let _ = writeln!(
-                w,
-                "  contacts           {} grain-grain, {} grain-wall, {:.4} per grain",
-                get_attr::<i64>(&g, "grain_contacts")?,
-                get_attr::<i64>(&g, "wall_contacts")?,
-                get_attr::<f64>(&g, "contacts_per_grain")?
-            );
-            let _ = writeln!(
-                w,
-                "  bonds              {} intact, {} broken",
-                get_attr::<i64>(&g, "bonds")?,
-                dataset(&g, "broken_bonds")?
-                    .shape()
-                    .first()
-                    .copied()
-                    .unwrap_or(0)
-            );
-            let _ = writeln!(
-                w,
-                "  solver             residual {:.3e}, {} Newton iterations, {} topology passes, {} cuts",
-                get_attr::<f64>(&g, "residual")?,
-                get_attr::<i64>(&g, "newton_iterations")?,
-                get_attr::<i64>(&g, "topology_passes")?,
-                get_attr::<i64>(&g, "cuts")?
-            );
-        }
-        if let Some(mut stats) = read_summary_group(&file)? {
-            let timers = timers_mut(&mut stats.timers);
-            let total: f64 = timers.iter().map(|(_, v)| **v).sum();
-            let _ = writeln!(w, "\ntime [s]    {total:.3} in all");
-            for (name, v) in timers {
-                let _ = writeln!(w, "  {name:<24} {:>10.3}", *v);
-            }
-            let _ = writeln!(w, "counters");
-            for (name, v) in counters_mut(&mut stats.counters) {
-                let _ = writeln!(w, "  {name:<24} {:>10}", *v);
-            }
-        }
-        Ok(out)
-    };
-    text().map_err(read_error(path))
-}
-
 // ---------------------------------------------------------------------------------------
 // Opening.
 
@@ -624,7 +571,7 @@ pub(crate) fn open_existing(path: &Path) -> Result<File, Error> {
     let file = File::open(path).map_err(|e| {
         let e = e.to_string();
         let hint = if e.contains("unable to lock") {
-            " (is a run still writing it? HDF5_USE_FILE_LOCKING=FALSE reads it anyway)"
+            " (was a run swapping in its next version? try again)"
         } else {
             ""
         };

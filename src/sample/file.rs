@@ -313,6 +313,7 @@ fn read_file(file: &File) -> R<SampleFile> {
         displacement: read_rows::<f64, 2>(&g, "displacement", Some(n))?,
         rotation: read_vec::<f64>(&g, "rotation", Some(n))?,
         radius: read_vec::<f64>(&g, "radius", Some(n))?,
+        taken_out: vec![false; n],
     };
 
     let bonds = read_rows::<i64, 2>(file, "bonds", None)?

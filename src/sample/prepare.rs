@@ -233,6 +233,7 @@ pub fn prepare(
         control: Vec::new(),
         until_failure: false,
         failure_drop: None,
+        breakouts: false,
     };
     let state = State::fresh(grains, walls, contacts, Vec::new());
     // The consistent tangent: near rest many contacts sit on the Coulomb limit, where the

@@ -353,6 +353,12 @@ pub struct Stage {
     /// in pieces. The increment that shows the drop is written and ends the test.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub failure_drop: Option<f64>,
+    /// In a stage loaded until failure, a cluster of grains that breaks out of the sample (no
+    /// equilibrium near holds it: the cylinder test's borehole surface, thesis 4.4.2) is
+    /// taken out and recorded, and loading goes on; the sample has failed when what finds no
+    /// equilibrium is more than a tenth of its grains.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub breakouts: bool,
 }
 
 /// Where the state goes.

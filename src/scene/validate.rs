@@ -472,6 +472,12 @@ fn stages(scene: &Scene, walls: &BTreeMap<String, WallControl>, p: &mut Problems
                 );
             }
         }
+        if s.breakouts && !s.until_failure {
+            p.push(
+                format!("{at}.breakouts"),
+                "needs `until_failure = true`: loading goes on after a breakout until the sample fails",
+            );
+        }
         for (name, &control) in &s.control {
             let key = child_key(&format!("{at}.control"), name);
             if scene.membranes.iter().any(|m| &m.name == name) {

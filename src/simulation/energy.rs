@@ -26,20 +26,26 @@ pub struct EnergyBalance {
     pub dissipated: f64,
     /// Energy the bonds that broke held when they broke.
     pub bonds_released: f64,
+    /// Energy the contacts of grains taken out of the sample stored (a breakout, see
+    /// [`Simulation::take_out`]): carried away with them.
+    pub taken_out: f64,
 }
 
 impl EnergyBalance {
-    /// `work - stored_change - dissipated - bonds_released`, relative to the largest term.
+    /// `work - stored_change - dissipated - bonds_released - taken_out`, relative to the
+    /// largest term.
     pub fn imbalance(&self) -> f64 {
         let scale = [
             self.work,
             self.stored_change,
             self.dissipated,
             self.bonds_released,
+            self.taken_out,
         ]
         .iter()
         .fold(0.0f64, |m, v| m.max(v.abs()));
-        let rest = self.work - self.stored_change - self.dissipated - self.bonds_released;
+        let rest =
+            self.work - self.stored_change - self.dissipated - self.bonds_released - self.taken_out;
         if scale > 0.0 {
             rest / scale
         } else {
@@ -101,7 +107,7 @@ impl BoundaryForces {
 
 /// The energy contact `c` stores in its committed state: its normal energy and its shear
 /// spring's `F_s^2 / 2 k_s`.
-fn stored_energy(law: &dyn ContactLaw, c: &Contact) -> f64 {
+pub(super) fn stored_energy(law: &dyn ContactLaw, c: &Contact) -> f64 {
     let normal = if c.bonded || c.overlap > 0.0 {
         law.normal_energy(&c.params, c.overlap, c.bonded)
     } else {

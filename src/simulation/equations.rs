@@ -6,8 +6,7 @@ use super::LoadStep;
 use crate::assembly::{contact_block, frame_turn_force, BlockTangent, DofMap, PairMap, Pattern};
 use crate::contact::{kinematics, Configuration, Contact, ContactLaw, Kinematics, SlipTangent};
 use crate::geometry::{
-    chains, extent_along, rotate, Chain, FriendSet, GrainSet, Membrane, MembraneShape, Pair, Side,
-    WallSet,
+    chains, rotate, Chain, FriendSet, GrainSet, Membrane, MembraneShape, Pair, Side, WallSet,
 };
 use crate::parallel;
 use crate::simulation::MaterialModel;
@@ -52,8 +51,9 @@ fn holding(n: usize, contacts: &[Contact]) -> (Vec<usize>, Vec<Vec<usize>>) {
 /// into the sample, with no equilibrium until it meets another; the membrane passes over it.
 /// All grains when none is held so (a packing before its first contacts). Fixed from the
 /// committed state at the start of each increment, so the chain does not gain or lose grains
-/// as they touch within it.
-pub fn membrane_carriers(n: usize, contacts: &[Contact]) -> Vec<bool> {
+/// as they touch within it. Grains taken out of the sample never carry.
+pub fn membrane_carriers(grains: &GrainSet, contacts: &[Contact]) -> Vec<bool> {
+    let n = grains.len();
     let (held, _) = holding(n, contacts);
     let mut bonds = vec![0usize; n];
     for c in contacts.iter().filter(|c| c.bonded) {
@@ -66,7 +66,7 @@ pub fn membrane_carriers(n: usize, contacts: &[Contact]) -> Vec<bool> {
     if carrying.iter().any(|&c| c) {
         carrying
     } else {
-        vec![true; n]
+        grains.taken_out.iter().map(|&out| !out).collect()
     }
 }
 
@@ -83,12 +83,14 @@ const ANCHOR_CONTACTS: usize = 4;
 /// nearest the centroid among equals, takes the translations; of the grains at least two
 /// contacts deep, the one farthest from the centroid takes the rotation, so its lever is
 /// long. Chosen anew from the committed state at the start of every increment (a spring acts
-/// on the move within the increment only), so a resumed run chooses the same.
+/// on the move within the increment only), so a resumed run chooses the same. Grains taken
+/// out of the sample are not in it: they count in neither the centroid nor the choice.
 pub fn anchors(grains: &GrainSet, walls: &WallSet, contacts: &[Contact]) -> Vec<Anchor> {
     let straight = walls.walls.iter().any(|w| w.circle.is_none());
     let friction = walls.walls.iter().any(|w| w.friction != 0.0);
     let n = grains.len();
-    if n < 2 || straight || friction {
+    let in_sample: Vec<usize> = grains.in_sample().collect();
+    if in_sample.len() < 2 || straight || friction {
         return Vec::new();
     }
     // The network of contacts that hold, and each grain's depth in it.
@@ -109,8 +111,10 @@ pub fn anchors(grains: &GrainSet, walls: &WallSet, contacts: &[Contact]) -> Vec<
     }
     // Grains no loose grain reaches (none is loose): as deep as can be.
     let depth = |g: usize| depth[g].min(n);
-    let centroid = grains.position.iter().fold([0.0; 2], |c, p| {
-        [c[0] + p[0] / n as f64, c[1] + p[1] / n as f64]
+    let count = in_sample.len() as f64;
+    let centroid = in_sample.iter().fold([0.0; 2], |c, &g| {
+        let p = grains.position[g];
+        [c[0] + p[0] / count, c[1] + p[1] / count]
     });
     let offset = |g: usize| {
         let p = grains.position[g];
@@ -119,7 +123,7 @@ pub fn anchors(grains: &GrainSet, walls: &WallSet, contacts: &[Contact]) -> Vec<
     let distance = |g: usize| offset(g)[0].hypot(offset(g)[1]);
     let mut out = Vec::new();
     if walls.is_empty() {
-        let deepest = (0..n)
+        let deepest = (in_sample.iter().copied())
             .min_by(|&a, &b| {
                 depth(b)
                     .cmp(&depth(a))
@@ -134,8 +138,13 @@ pub fn anchors(grains: &GrainSet, walls: &WallSet, contacts: &[Contact]) -> Vec<
             });
         }
     }
-    let deep = (0..n).map(depth).max().unwrap_or(0).min(2);
-    let far = (0..n)
+    let deep = in_sample
+        .iter()
+        .map(|&g| depth(g))
+        .max()
+        .unwrap_or(0)
+        .min(2);
+    let far = (in_sample.iter().copied())
         .filter(|&g| depth(g) >= deep)
         .max_by(|&a, &b| distance(a).total_cmp(&distance(b)).then(b.cmp(&a)))
         .expect("grains");
@@ -688,7 +697,7 @@ impl IncrementEquations<'_> {
             (None, None) => match self.walls.span_walls(w) {
                 Some((a, b)) => -(self.q.wall_line[a] + self.q.wall_line[b]),
                 // Between membranes: the sample's extent along the wall.
-                None => extent_along(&self.q.position, &self.grains.radius, wall.tangent()),
+                None => self.grains.extent_along(&self.q.position, wall.tangent()),
             },
         }
     }
@@ -744,6 +753,7 @@ impl IncrementEquations<'_> {
                 &self.q.position,
                 &self.grains.radius,
                 self.carriers,
+                &self.grains.taken_out,
             );
             if !self.pattern.couples(self.dofs, &chains) {
                 return None;

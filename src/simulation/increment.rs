@@ -17,18 +17,208 @@ use std::time::Instant;
 /// that keeps going is caught long before by the runaway test (a diameter is a few passes).
 const MAX_PASSES: usize = 200;
 
+/// Share of the load within which a limit load is bracketed (method note, step 4): a step
+/// that finds no equilibrium near is halved until it changes the load by at most this much.
+const BRACKET: f64 = 0.005;
+
+/// Halvings of one increment, at most, in bracketing a limit load. A limit load of zero (a
+/// grain with nothing to hold it) is never bracketed as a share of the load: it is reported
+/// with the share its last step changed the load by.
+const BRACKET_CUTS: u32 = 16;
+
+/// Most of the sample's grains a cluster that breaks out may hold: more is the sample failing
+/// as a whole.
+const BREAKOUT_SHARE: f64 = 0.1;
+
+/// Share of its radius a grain moved in a descent that found no equilibrium near by which it
+/// counts as carried with the grains that ran away.
+const MECHANISM_MOVE: f64 = 1.0;
+
+/// Which part of its increment a (sub-)step is: where it starts and how much of the
+/// increment it is, both as shares of the increment.
+#[derive(Debug, Clone, Copy)]
+struct Part {
+    from: f64,
+    share: f64,
+}
+
 impl Simulation {
-    /// Minimise the increment's potential, break overloaded bonds one at a time, and commit.
-    /// On failure the committed state is left as it was.
+    /// Solve the increment and commit it. Where its minimisation does not reach equilibrium,
+    /// the increment is not trusted as one step: its load path is followed in halves. A
+    /// step's equilibrium is near the last one only for a small enough step, and the halves
+    /// follow the path the load takes, which decides between the equilibria a large step
+    /// can jump to (a grain wedged between two that close on it sticks from first touch).
+    /// A stall is halved down to `max_cuts` times, and if it still stalls the increment is
+    /// left unsolved. No equilibrium near is halved until the step changes the load by at
+    /// most [`BRACKET`], which brackets the limit load: the halves commit as they converge, so
+    /// the state is left at the highest load found in equilibrium.
     pub(super) fn minimise_step(
         &mut self,
         step: &LoadStep,
         report: &mut IncrementReport,
     ) -> Result<(), NumericError> {
+        let whole = Part {
+            from: 0.0,
+            share: 1.0,
+        };
+        let start = self.state.clone();
+        let result = self.follow_path(step, whole, 0, report);
+        if let Err(NumericError::NotConverged { .. }) = result {
+            // The solver gave up: the increment is not solved, whatever halves converged.
+            self.state = start;
+            self.rebuild_workspace()?;
+        }
+        result
+    }
+
+    /// Solve `step`, part `part` of the increment, at `depth` halvings; halve it where it
+    /// does not converge (see [`Simulation::minimise_step`]).
+    fn follow_path(
+        &mut self,
+        step: &LoadStep,
+        part: Part,
+        depth: u32,
+        report: &mut IncrementReport,
+    ) -> Result<(), NumericError> {
+        let error = match self.solve_part(step, part.share, report) {
+            Ok(()) => return Ok(()),
+            Err(e) => e,
+        };
+        let halve = match error {
+            NumericError::NotConverged { .. } => depth < self.config.max_cuts,
+            NumericError::NoEquilibrium { .. } => {
+                depth < BRACKET_CUTS && self.load_change(step, part) > BRACKET
+            }
+            _ => false,
+        };
+        if let NumericError::NoEquilibrium { grains, .. } = &error {
+            if !halve && self.breaks_out(grains) {
+                // Bracketed: the cluster breaks out at this load. Out with it, and on.
+                let breakout = self.take_out(grains)?;
+                report.bonds_broken += breakout.bonds_broken;
+                return self.follow_path(step, part, depth, report);
+            }
+        }
+        if !halve {
+            return Err(match error {
+                NumericError::NotConverged {
+                    increment,
+                    residual,
+                    worst_grain,
+                    ..
+                } => NumericError::NotConverged {
+                    increment,
+                    residual,
+                    worst_grain,
+                    cuts: depth,
+                },
+                NumericError::NoEquilibrium {
+                    increment,
+                    residual,
+                    grains,
+                    ..
+                } => NumericError::NoEquilibrium {
+                    increment,
+                    residual,
+                    grains,
+                    load_change: self.load_change(step, part),
+                },
+                other => other,
+            });
+        }
+        report.cuts += 1;
+        self.stats.counters.cuts += 1;
+        let stress: Vec<f64> = self.state.walls.walls.iter().map(|w| w.stress).collect();
+        let pressure: Vec<f64> = self.state.membranes.iter().map(|m| m.pressure).collect();
+        let (first, second) = step.halves(&stress, &pressure);
+        let share = 0.5 * part.share;
+        self.follow_path(&first, Part { share, ..part }, depth + 1, report)?;
+        let rest = Part {
+            from: part.from + share,
+            share,
+        };
+        self.follow_path(&second, rest, depth + 1, report)
+    }
+
+    /// Whether `cluster`, which no equilibrium near holds, breaks out of the sample in a stage
+    /// that takes breakouts out: at most [`BREAKOUT_SHARE`] of the grains in the sample. A
+    /// larger one is the sample failing as a whole.
+    fn breaks_out(&self, cluster: &[usize]) -> bool {
+        let in_sample = self.state.grains.in_sample().count();
+        self.stages[self.state.stage].breakouts
+            && !cluster.is_empty()
+            && cluster.len() as f64 <= BREAKOUT_SHARE * in_sample as f64
+    }
+
+    /// The grains the descent that found no equilibrium near carries with `runaway`: those
+    /// moved by more than [`MECHANISM_MOVE`] of their radius in it, joined to a runaway grain
+    /// through contacts that touch or are bonded where it stopped. In increasing order.
+    fn mechanism(&self, runaway: &[usize]) -> Vec<usize> {
+        let grains = &self.state.grains;
+        let moved = |g: usize| {
+            let d = self.q.displacement[g];
+            d[0].hypot(d[1]) > MECHANISM_MOVE * grains.radius[g]
+        };
+        let mut neighbours = vec![Vec::new(); grains.len()];
+        for c in (self.state.contacts.contacts.iter()).filter(|c| c.bonded || c.overlap > 0.0) {
+            if let crate::geometry::Side::Grain(a) = c.pair.a {
+                neighbours[a].push(c.pair.b);
+                neighbours[c.pair.b].push(a);
+            }
+        }
+        let mut inside = vec![false; grains.len()];
+        let mut queue: Vec<usize> = runaway.to_vec();
+        for &g in runaway {
+            inside[g] = true;
+        }
+        while let Some(g) = queue.pop() {
+            for &h in &neighbours[g] {
+                if !inside[h] && moved(h) {
+                    inside[h] = true;
+                    queue.push(h);
+                }
+            }
+        }
+        (0..grains.len()).filter(|&g| inside[g]).collect()
+    }
+
+    /// How much `step`, part `part` of the increment, changes the load, as a share of the
+    /// load at its end: the largest over the stresses and pressures it changes and over the
+    /// walls the stage moves (their move over the stage so far).
+    fn load_change(&self, step: &LoadStep, part: Part) -> f64 {
+        let stage = &self.stages[self.state.stage];
+        let done =
+            (self.state.stage_increment as f64 + part.from + part.share) / stage.increments as f64;
+        let share = |change: f64, level: f64| {
+            if change == 0.0 {
+                0.0
+            } else {
+                (change / level).abs()
+            }
+        };
+        let walls = self.state.walls.walls.iter().enumerate();
+        let stresses = walls.map(|(w, wall)| {
+            share(step.stress[w] - wall.stress, step.stress[w])
+                .max(share(step.normal_move[w], done * stage.normal_move[w]))
+                .max(share(step.slide[w], done * stage.slide[w]))
+        });
+        let pressures = (self.state.membranes.iter().zip(&step.pressure))
+            .map(|(m, &p)| share(p - m.pressure, p));
+        stresses.chain(pressures).fold(0.0, f64::max)
+    }
+
+    /// Minimise the potential of `step`, `share` of the increment, break overloaded bonds one
+    /// at a time, and commit. On failure the committed state is left as it was.
+    fn solve_part(
+        &mut self,
+        step: &LoadStep,
+        share: f64,
+        report: &mut IncrementReport,
+    ) -> Result<(), NumericError> {
         let committed = self.state.contacts.clone();
         let energy = self.energy;
         let made_before: Vec<_> = committed.contacts.iter().map(|c| c.pair).collect();
-        let result = self.solve_with_breaks(step, report);
+        let result = self.solve_with_breaks(step, share, report);
         match result {
             Ok(u) => {
                 report.negative_pivots = self.negative_pivots(step, &u);
@@ -45,7 +235,8 @@ impl Simulation {
                 self.stats.counters.contacts_lost += made_before.len() - kept;
                 self.commit(step, &u);
                 self.index_pairs()?;
-                self.state.last_step = u;
+                // The predictor is kept per whole increment: a half step predicts half of it.
+                self.state.last_step = u.iter().map(|v| v / share).collect();
                 Ok(())
             }
             Err(e) => {
@@ -62,12 +253,13 @@ impl Simulation {
     fn solve_with_breaks(
         &mut self,
         step: &LoadStep,
+        share: f64,
         report: &mut IncrementReport,
     ) -> Result<Vec<f64>, NumericError> {
         self.start_step();
         self.start_newton()?;
         self.engage_pairs();
-        let mut u = self.start_point(step)?;
+        let mut u = self.start_point(step, share)?;
         loop {
             self.minimise(step, &mut u, report)?;
             if !self.break_most_overloaded_bond() {
@@ -81,8 +273,8 @@ impl Simulation {
     /// it is nearer equilibrium than the committed state, else the committed state. The last
     /// increment's displacements extrapolate its smooth part well, but a grain that snapped
     /// through in it would be thrown on by as much again, into its neighbours.
-    fn start_point(&mut self, step: &LoadStep) -> Result<Vec<f64>, NumericError> {
-        let mut start = self.predictor();
+    fn start_point(&mut self, step: &LoadStep, share: f64) -> Result<Vec<f64>, NumericError> {
+        let mut start = self.predictor(share);
         let at_rest = vec![0.0; start.len()];
         if start != at_rest {
             // The committed state first, while the lists are still made around it.
@@ -116,12 +308,13 @@ impl Simulation {
         }
     }
 
-    /// The last increment's displacements when it was a step of the same stage on the same
-    /// unknowns (the step is the same), else nothing moved.
-    fn predictor(&self) -> Vec<f64> {
+    /// The last increment's displacements, `share` of them for a step that is that share of
+    /// an increment, when it was a step of the same stage on the same unknowns (the step is
+    /// the same), else nothing moved.
+    fn predictor(&self, share: f64) -> Vec<f64> {
         let last = &self.state.last_step;
         if self.state.stage_increment > 0 && last.len() == self.dofs.len {
-            last.clone()
+            last.iter().map(|v| v * share).collect()
         } else {
             vec![0.0; self.dofs.len]
         }
@@ -177,7 +370,8 @@ impl Simulation {
                 return Err(NumericError::NoEquilibrium {
                     increment: self.state.increment + 1,
                     residual: outcome.residual,
-                    grains: outcome.runaway,
+                    grains: self.mechanism(&outcome.runaway),
+                    load_change: 0.0,
                 });
             }
             if !outcome.at_reach {

@@ -1,6 +1,7 @@
 //! A simulation: a scene turned into grains, walls, contacts and a load program, advanced one
 //! load increment at a time by the global solver or by grain-by-grain relaxation.
 
+mod breakout;
 mod energy;
 mod equations;
 mod grain_balance;
@@ -114,12 +115,7 @@ impl Simulation {
     ) -> Result<Simulation, NumericError> {
         let law = material.law();
         let r_mean = state.grains.mean_radius();
-        let dofs = DofMap::new(
-            state.grains.len(),
-            material.fixed_rotations,
-            &state.walls,
-            &state.contacts.glued(state.grains.len()),
-        );
+        let dofs = dof_map(&state, material.fixed_rotations);
         // The friends lists as they were when last made, so the pattern is the same.
         let mut at_reference = state.grains.clone();
         at_reference.position.clone_from(&state.friends_reference);
@@ -138,12 +134,13 @@ impl Simulation {
             config.skin * r_mean,
             &pairs_of(&state.contacts),
         );
-        let carriers = membrane_carriers(state.grains.len(), &state.contacts.contacts);
+        let carriers = membrane_carriers(&state.grains, &state.contacts.contacts);
         let chains = chains(
             &state.membranes,
             &state.grains.position,
             &state.grains.radius,
             &carriers,
+            &state.grains.taken_out,
         );
         let links: Vec<(usize, usize)> = chains.iter().flat_map(Chain::links).collect();
         let pattern = Arc::new(Pattern::build(&friends, &dofs, &state.walls, &links));
@@ -302,12 +299,7 @@ impl Simulation {
             }
             wall.control = c;
         }
-        self.dofs = DofMap::new(
-            self.state.grains.len(),
-            self.material.fixed_rotations,
-            &self.state.walls,
-            &self.state.contacts.glued(self.state.grains.len()),
-        );
+        self.dofs = dof_map(&self.state, self.material.fixed_rotations);
         self.linear.invalidate();
         self.install_pattern()
     }
@@ -335,12 +327,7 @@ impl Simulation {
                 }
             }
         }
-        self.dofs = DofMap::new(
-            self.state.grains.len(),
-            self.material.fixed_rotations,
-            &self.state.walls,
-            &glued,
-        );
+        self.dofs = dof_map(&self.state, self.material.fixed_rotations);
         self.linear.invalidate();
         self.install_pattern()
     }
@@ -399,7 +386,7 @@ impl Simulation {
         self.reopened.clear();
         self.remade.clear();
         self.chains_held = false;
-        self.carriers = membrane_carriers(self.state.grains.len(), &self.state.contacts.contacts);
+        self.carriers = membrane_carriers(&self.state.grains, &self.state.contacts.contacts);
     }
 
     /// What the global solve of a step adds: anchors on the committed contacts, the membranes
@@ -532,6 +519,7 @@ impl Simulation {
             position,
             &self.state.grains.radius,
             &self.carriers,
+            &self.state.grains.taken_out,
         );
         // A chain changes with its grains, or with the sample's extent along a side, which
         // sets the load of its end pieces.
@@ -669,6 +657,19 @@ impl Simulation {
         // Evaluation overwrote the trial responses with the committed ones: same values.
         (rel, worst)
     }
+}
+
+/// The unknowns of `state`: its walls' controls, its glued grains and those taken out.
+fn dof_map(state: &State, fixed_rotations: bool) -> DofMap {
+    let n = state.grains.len();
+    let glued = state.contacts.glued(n);
+    DofMap::new(
+        n,
+        fixed_rotations,
+        &state.walls,
+        &glued,
+        &state.grains.taken_out,
+    )
 }
 
 /// The pairs of the contacts of `set`.

@@ -69,10 +69,19 @@ impl IncrementEquations<'_> {
             lag.unloading = lag.overlap > 0.0 && n <= 0.5 * lag.overlap;
             lag.overlap = n;
             lag.shear_stiffness = self.law.shear_stiffness(&c.params, n).0;
-            lag.limit = if c.bonded || c.params.friction.is_infinite() {
+            // A pair apart at the start of the increment, found touching for the first time,
+            // sticks until the next refreeze: on the load path its shear and normal force grow
+            // together from zero at first touch, and a limit lagged from where it carried
+            // nothing would let it slide without friction (a grain that two neighbours close
+            // on would slide out of the wedge they make instead of being held in it). Only
+            // the first touch: a pair that opens and closes again on the way has a limit of
+            // its own by then.
+            let first_touch = c.start_overlap < 0.0 && !c.bonded && !lag.made && n > 0.0;
+            lag.made |= first_touch;
+            lag.limit = if c.bonded || c.params.friction.is_infinite() || first_touch {
                 f64::INFINITY
             } else {
-                c.params.friction * normal_force.max(0.0)
+                lag.refrozen_limit(c.params.friction * normal_force.max(0.0))
             };
             // Taken once, where the contact is first found touching: taken anew at every
             // refreeze it would follow the iterate, and the lag would converge only linearly.
@@ -157,6 +166,7 @@ impl IncrementEquations<'_> {
             &self.q.position,
             &self.grains.radius,
             self.carriers,
+            &self.grains.taken_out,
         );
         if chains
             .iter()
@@ -434,7 +444,7 @@ impl Potential for IncrementEquations<'_> {
         hint: &mut Vec<u8>,
     ) -> bool {
         let g = grain;
-        if self.dofs.glue[g].is_some() || self.anchors.iter().any(|a| a.grain == g) {
+        if self.dofs.grain_held(g) || self.anchors.iter().any(|a| a.grain == g) {
             return false;
         }
         self.configure(u);

@@ -173,6 +173,9 @@ pub struct StageProgram {
     /// The fraction of its peak force below which a pushed wall's force means failure (see
     /// [`crate::scene::Stage::failure_drop`]).
     pub failure_drop: Option<f64>,
+    /// Whether clusters that break out are taken out and loading goes on (see
+    /// [`crate::scene::Stage::breakouts`]).
+    pub breakouts: bool,
 }
 
 /// The walls of a scene: the four of `box` (bottom, right, top, left) on the grains' bounding
@@ -380,6 +383,7 @@ pub fn build_stages(scene: &Scene, walls: &WallSet, membranes: &[Membrane]) -> V
                 control: control.clone(),
                 until_failure: s.until_failure,
                 failure_drop: s.failure_drop,
+                breakouts: s.breakouts,
             };
             for (name, v) in &s.stress {
                 if let Some(w) = index(name) {

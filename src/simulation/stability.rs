@@ -67,6 +67,7 @@ impl Simulation {
                 self.material.fixed_rotations,
                 &walls,
                 &self.state.contacts.glued(self.state.grains.len()),
+                &self.state.grains.taken_out,
             );
             let links: Vec<(usize, usize)> = self.chains.iter().flat_map(Chain::links).collect();
             let pattern = Arc::new(Pattern::build(&self.friends, &dofs, &walls, &links));

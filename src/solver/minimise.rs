@@ -163,6 +163,11 @@ const LAMBDA_START: f64 = 1e-4;
 /// Newton steps.
 const SEMISMOOTH_BELOW: f64 = 1e-2;
 
+/// Relative residual below which every step is a semi-smooth one: near the answer the
+/// contacts' states have settled, and Newton on the true residual converges in a step or two
+/// where the fixed point on the lag converges linearly.
+const SEMISMOOTH_NEAR: f64 = 1e-3;
+
 /// The lag is refrozen once a step has brought the residual of the lagged problem below this
 /// share of the last true residual: the refrozen lag is a fixed-point iteration, and
 /// refreezing after every step, whatever the lagged problem's own progress, can cycle.
@@ -440,7 +445,7 @@ pub fn minimise(
                 true_merit = merit;
             }
         }
-        semismooth = stalls >= LAG_STALLS && rel < SEMISMOOTH_BELOW;
+        semismooth = rel < SEMISMOOTH_NEAR || (stalls >= LAG_STALLS && rel < SEMISMOOTH_BELOW);
         out.history.push(rel);
         if eq.needs_new_pattern() || (alpha == reach && reach < 1.0) {
             out.at_reach = true;

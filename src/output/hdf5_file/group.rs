@@ -15,24 +15,24 @@ pub(super) fn per_wall(values: &[f64], walls: usize) -> Vec<f64> {
 
 pub(super) fn write_group_state(g: &Group, state: &State, report: &IncrementReport) -> R<()> {
     let grains = g.create_group("grains")?;
-    put(
+    put_plain(
         &grains,
         "position",
         ArrayView2::from(&state.grains.position[..]),
     )?;
     // Origin and displacement too: the solver forms contact geometry from them, and
     // `position = origin + displacement` cannot be split again exactly.
-    put(
+    put_plain(
         &grains,
         "origin",
         ArrayView2::from(&state.grains.origin[..]),
     )?;
-    put(
+    put_plain(
         &grains,
         "displacement",
         ArrayView2::from(&state.grains.displacement[..]),
     )?;
-    put(
+    put_plain(
         &grains,
         "rotation",
         ArrayView1::from(&state.grains.rotation[..]),
@@ -44,35 +44,35 @@ pub(super) fn write_group_state(g: &Group, state: &State, report: &IncrementRepo
         .iter()
         .map(|c| [side_code(c.pair.a), c.pair.b as i64])
         .collect();
-    put(&contacts, "pair", ArrayView2::from(&pair[..]))?;
+    put_plain(&contacts, "pair", ArrayView2::from(&pair[..]))?;
     // The contact as a line between grain centres for XDMF; a wall contact's wall end is
     // its grain (a line of zero length).
     let nodes: Vec<[i64; 2]> = pair
         .iter()
         .map(|&[a, b]| [if a < 0 { b } else { a }, b])
         .collect();
-    put(&contacts, "nodes", ArrayView2::from(&nodes[..]))?;
+    put_plain(&contacts, "nodes", ArrayView2::from(&nodes[..]))?;
     let column = |f: fn(&Contact) -> f64| -> Array1<f64> { cs.iter().map(f).collect() };
-    put(
+    put_plain(
         &contacts,
         "normal_force",
         column(|c| c.response.normal_force).view(),
     )?;
-    put(
+    put_plain(
         &contacts,
         "shear_force",
         column(|c| c.response.shear_force).view(),
     )?;
-    put(
+    put_plain(
         &contacts,
         "shear_displacement",
         column(|c| c.shear_displacement0).view(),
     )?;
-    put(&contacts, "overlap", column(|c| c.overlap).view())?;
+    put_plain(&contacts, "overlap", column(|c| c.overlap).view())?;
     let state_code: Array1<u8> = cs.iter().map(|c| c.state() as u8).collect();
-    put(&contacts, "state", state_code.view())?;
+    put_plain(&contacts, "state", state_code.view())?;
     let sliding: Array1<u8> = cs.iter().map(|c| u8::from(c.response.sliding)).collect();
-    put(&contacts, "sliding", sliding.view())?;
+    put_plain(&contacts, "sliding", sliding.view())?;
     let params: Vec<[f64; 4]> = cs
         .iter()
         .map(|c| {
@@ -80,7 +80,7 @@ pub(super) fn write_group_state(g: &Group, state: &State, report: &IncrementRepo
             [p.stiffness, p.kappa, p.friction, p.strength]
         })
         .collect();
-    put(&contacts, "params", ArrayView2::from(&params[..]))?;
+    put_plain(&contacts, "params", ArrayView2::from(&params[..]))?;
     let tangent: Vec<[f64; 3]> = cs
         .iter()
         .map(|c| {
@@ -88,28 +88,28 @@ pub(super) fn write_group_state(g: &Group, state: &State, report: &IncrementRepo
             [r.dfn_dn, r.dfs_dn, r.dfs_ds]
         })
         .collect();
-    put(&contacts, "tangent", ArrayView2::from(&tangent[..]))?;
+    put_plain(&contacts, "tangent", ArrayView2::from(&tangent[..]))?;
 
     let nw = state.walls.len();
     let m = &report.measurements;
     let walls = g.create_group("walls")?;
     let wall_column =
         |f: fn(&Wall) -> f64| -> Array1<f64> { state.walls.walls.iter().map(f).collect() };
-    put(&walls, "position", wall_column(|w| w.position).view())?;
-    put(&walls, "slide", wall_column(|w| w.slide).view())?;
-    put(&walls, "turn", wall_column(|w| w.turn).view())?;
-    put(&walls, "stress", wall_column(|w| w.stress).view())?;
+    put_plain(&walls, "position", wall_column(|w| w.position).view())?;
+    put_plain(&walls, "slide", wall_column(|w| w.slide).view())?;
+    put_plain(&walls, "turn", wall_column(|w| w.turn).view())?;
+    put_plain(&walls, "stress", wall_column(|w| w.stress).view())?;
     let normal_force = per_wall(&m.wall_normal_force, nw);
-    put(&walls, "normal_force", ArrayView1::from(&normal_force[..]))?;
+    put_plain(&walls, "normal_force", ArrayView1::from(&normal_force[..]))?;
     let shear_force = per_wall(&m.wall_shear_force, nw);
-    put(&walls, "shear_force", ArrayView1::from(&shear_force[..]))?;
+    put_plain(&walls, "shear_force", ArrayView1::from(&shear_force[..]))?;
     let measured = per_wall(&m.wall_stress, nw);
-    put(&walls, "measured_stress", ArrayView1::from(&measured[..]))?;
+    put_plain(&walls, "measured_stress", ArrayView1::from(&measured[..]))?;
     let membranes = g.create_group("membranes")?;
     let pressure: Vec<f64> = state.membranes.iter().map(|m| m.pressure).collect();
-    put(&membranes, "pressure", ArrayView1::from(&pressure[..]))?;
+    put_plain(&membranes, "pressure", ArrayView1::from(&pressure[..]))?;
 
-    put(g, "macro_stress", ArrayView2::from(&m.macro_stress[..]))?;
+    put_plain(g, "macro_stress", ArrayView2::from(&m.macro_stress[..]))?;
 
     let broken: Vec<[i64; 4]> = state
         .contacts
@@ -124,20 +124,21 @@ pub(super) fn write_group_state(g: &Group, state: &State, report: &IncrementRepo
             ]
         })
         .collect();
-    put(g, "broken_bonds", ArrayView2::from(&broken[..]))?;
+    put_plain(g, "broken_bonds", ArrayView2::from(&broken[..]))?;
 
     let friends = g.create_group("friends")?;
-    put(
+    put_plain(
         &friends,
         "reference",
         ArrayView2::from(&state.friends_reference[..]),
     )?;
-    put(
+    put_plain(
         &friends,
         "wall_reference",
         ArrayView2::from(&state.friends_wall_reference[..]),
     )?;
-    put(g, "last_step", ArrayView1::from(&state.last_step[..]))?;
+    put_plain(g, "last_step", ArrayView1::from(&state.last_step[..]))?;
+    write_breakouts(g, state)?;
 
     let count = |v: usize| v as i64;
     set_attr(g, "increment", &count(state.increment))?;
@@ -162,12 +163,13 @@ pub(super) fn read_group_state(g: &Group, h: &RunHeader) -> R<State> {
     let n = h.radius.len();
     let nw = h.walls.len();
     let grains = g.group("grains")?;
-    let grains = GrainSet {
+    let mut grains = GrainSet {
         position: read_rows::<f64, 2>(&grains, "position", Some(n))?,
         origin: read_rows::<f64, 2>(&grains, "origin", Some(n))?,
         displacement: read_rows::<f64, 2>(&grains, "displacement", Some(n))?,
         rotation: read_vec::<f64>(&grains, "rotation", Some(n))?,
         radius: h.radius.clone(),
+        taken_out: vec![false; n],
     };
 
     let walls = g.group("walls")?;
@@ -261,6 +263,7 @@ pub(super) fn read_group_state(g: &Group, h: &RunHeader) -> R<State> {
         })
         .collect();
     let friends = g.group("friends")?;
+    let breakouts = read_breakouts(g, &mut grains, h.membranes.len(), nw)?;
     Ok(State {
         increment: get_count(g, "increment")?,
         stage: get_count(g, "stage")?,
@@ -278,6 +281,116 @@ pub(super) fn read_group_state(g: &Group, h: &RunHeader) -> R<State> {
         } else {
             Vec::new()
         },
+        breakouts,
         membranes,
     })
+}
+
+/// The breakouts so far, as group `breakouts`: their increments, grain counts and bonds
+/// broken, their grains one breakout after another, and the loads carried.
+fn write_breakouts(g: &Group, state: &State) -> R<()> {
+    let group = g.create_group("breakouts")?;
+    let list = &state.breakouts;
+    let column =
+        |f: fn(&Breakout) -> usize| -> Array1<i64> { list.iter().map(|b| f(b) as i64).collect() };
+    put_plain(&group, "increment", column(|b| b.increment).view())?;
+    put_plain(&group, "grain_count", column(|b| b.grains.len()).view())?;
+    put_plain(&group, "bonds_broken", column(|b| b.bonds_broken).view())?;
+    let grains: Array1<i64> = (list.iter().flat_map(|b| &b.grains))
+        .map(|&i| i as i64)
+        .collect();
+    put_plain(&group, "grains", grains.view())?;
+    let table = |width: usize, row: &dyn Fn(&Breakout) -> Vec<f64>| -> R<Array2<f64>> {
+        let values = list.iter().flat_map(row).collect();
+        Ok(Array2::from_shape_vec((list.len(), width), values)?)
+    };
+    let pressure = table(state.membranes.len(), &|b| b.pressure.clone())?;
+    put_plain(&group, "membrane_pressure", pressure.view())?;
+    let stress = table(state.walls.len(), &|b| {
+        b.stress.iter().map(|s| s.unwrap_or(f64::NAN)).collect()
+    })?;
+    put_plain(&group, "wall_stress", stress.view())
+}
+
+/// The breakouts of an increment group (none in files from before grains were taken out),
+/// their grains marked as taken out of `grains`; `membranes` and `walls` wide.
+fn read_breakouts(
+    g: &Group,
+    grains: &mut GrainSet,
+    membranes: usize,
+    walls: usize,
+) -> R<Vec<Breakout>> {
+    if !g.link_exists("breakouts") {
+        return Ok(Vec::new());
+    }
+    let group = g.group("breakouts")?;
+    let increment = read_vec::<i64>(&group, "increment", None)?;
+    let count = Some(increment.len());
+    let grain_count = read_vec::<i64>(&group, "grain_count", count)?;
+    let bonds_broken = read_vec::<i64>(&group, "bonds_broken", count)?;
+    let all = read_vec::<i64>(&group, "grains", None)?;
+    let pressure = read_table(&group, "membrane_pressure", increment.len(), membranes)?;
+    let stress = read_table(&group, "wall_stress", increment.len(), walls)?;
+    let natural = |name: &str, v: i64| {
+        usize::try_from(v).map_err(|_| Fail(format!("breakouts/{name} holds {v}")))
+    };
+    let mut rest = &all[..];
+    let mut breakouts = Vec::with_capacity(increment.len());
+    for k in 0..increment.len() {
+        let size = natural("grain_count", grain_count[k])?;
+        if size > rest.len() {
+            return Err(Fail(format!(
+                "breakouts/grains is shorter than breakouts/grain_count says ({} grains)",
+                all.len()
+            )));
+        }
+        let (mine, after) = rest.split_at(size);
+        rest = after;
+        let mut cluster = Vec::with_capacity(size);
+        for &i in mine {
+            let i = natural("grains", i)?;
+            match grains.taken_out.get_mut(i) {
+                Some(out) if !*out => *out = true,
+                Some(_) => return Err(Fail(format!("grain {i} is taken out twice"))),
+                None => return Err(Fail(format!("breakouts/grains names grain {i}"))),
+            }
+            cluster.push(i);
+        }
+        cluster.sort_unstable();
+        breakouts.push(Breakout {
+            increment: natural("increment", increment[k])?,
+            grains: cluster,
+            bonds_broken: natural("bonds_broken", bonds_broken[k])?,
+            pressure: pressure[k].clone(),
+            stress: stress[k]
+                .iter()
+                .map(|s| (!s.is_nan()).then_some(*s))
+                .collect(),
+        });
+    }
+    if !rest.is_empty() {
+        return Err(Fail(format!(
+            "breakouts/grains holds {} grains, breakouts/grain_count adds up to fewer",
+            all.len()
+        )));
+    }
+    Ok(breakouts)
+}
+
+/// A `rows` x `width` dataset of f64 as rows.
+fn read_table(g: &Group, name: &str, rows: usize, width: usize) -> R<Vec<Vec<f64>>> {
+    let ds = dataset(g, name)?;
+    let shape = ds.shape();
+    let raw = ds
+        .read_raw::<f64>()
+        .map_err(|e| Fail(format!("dataset `{}/{name}`: {e}", g.name())))?;
+    if shape != [rows, width] || raw.len() != rows * width {
+        return Err(Fail(format!(
+            "dataset `{}/{name}` has shape {shape:?}, expected ({rows}, {width})",
+            g.name()
+        )));
+    }
+    Ok((0..rows)
+        .map(|r| raw[r * width..(r + 1) * width].to_vec())
+        .collect())
 }

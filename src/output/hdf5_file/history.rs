@@ -172,7 +172,7 @@ const HISTORY_INT: [&str; 13] = [
     "increment",
 ];
 
-const HISTORY_FLOAT: [&str; 14] = [
+const HISTORY_FLOAT: [&str; 15] = [
     "residual",
     "contacts_per_grain",
     "macro_stress_xx",
@@ -188,6 +188,8 @@ const HISTORY_FLOAT: [&str; 14] = [
     "energy_dissipated",
     "energy_bonds_released",
     "energy_imbalance",
+    // NaN in files from before grains were taken out.
+    "energy_taken_out",
 ];
 
 const HISTORY_WALL: [&str; 6] = [
@@ -247,18 +249,9 @@ impl Widths {
     }
 }
 
-fn filtered(b: hdf5::DatasetBuilder) -> hdf5::DatasetBuilder {
-    let b = b.shuffle();
-    if hdf5::filters::deflate_available() {
-        b.deflate(4)
-    } else {
-        b
-    }
-}
-
 pub(super) fn create_history(h: &Group, walls: usize, membranes: usize, regions: usize) -> R<()> {
     for name in HISTORY_INT {
-        filtered(h.new_dataset_builder())
+        h.new_dataset_builder()
             .empty::<i64>()
             .shape(0..)
             .chunk(HISTORY_CHUNK)
@@ -291,7 +284,7 @@ fn create_negative_pivots(h: &Group) -> R<()> {
 }
 
 fn create_float_column(h: &Group, name: &str) -> R<()> {
-    filtered(h.new_dataset_builder())
+    h.new_dataset_builder()
         .empty::<f64>()
         .shape(0..)
         .chunk(HISTORY_CHUNK)
@@ -307,7 +300,7 @@ fn create_table(h: &Group, name: &str, width: usize) -> R<()> {
     } else {
         Extent::fixed(width)
     };
-    filtered(h.new_dataset_builder())
+    h.new_dataset_builder()
         .empty::<f64>()
         .shape(vec![Extent::resizable(0), second])
         .chunk((HISTORY_CHUNK, width.max(1)))
@@ -316,13 +309,7 @@ fn create_table(h: &Group, name: &str, width: usize) -> R<()> {
 }
 
 fn append_table_row(h: &Group, name: &str, row: usize, values: &[f64]) -> R<()> {
-    let ds = dataset(h, name)?;
-    ds.resize([row + 1, values.len()])?;
-    if !values.is_empty() {
-        let view = ArrayView2::from_shape((1, values.len()), values)?;
-        ds.write_slice(view, s![row..row + 1, ..])?;
-    }
-    Ok(())
+    put_row(h, name, row, values, true)
 }
 
 /// The rows `keep` of a table; none from a file written before the table was kept.
@@ -369,7 +356,7 @@ pub(super) fn append_history(
         state.increment as i64,
     ];
     let e = &report.energy;
-    let floats: [f64; 14] = [
+    let floats: [f64; 15] = [
         report.residual,
         m.contacts_per_grain,
         m.macro_stress[0][0],
@@ -384,6 +371,7 @@ pub(super) fn append_history(
         e.dissipated,
         e.bonds_released,
         e.imbalance(),
+        e.taken_out,
     ];
     let column = |f: fn(&Wall) -> f64| -> Vec<f64> { state.walls.walls.iter().map(f).collect() };
     let wall_rows: [Vec<f64>; 6] = [
@@ -430,13 +418,7 @@ pub(super) fn append_history(
 }
 
 pub(super) fn append_scalar<T: H5Type>(h: &Group, name: &str, row: usize, value: T) -> R<()> {
-    let ds = dataset(h, name)?;
-    ds.resize([row + 1])?;
-    ds.write_slice(
-        ArrayView1::from(std::slice::from_ref(&value)),
-        s![row..row + 1],
-    )?;
-    Ok(())
+    put_row(h, name, row, &[value], false)
 }
 
 /// Number of leading history rows whose increment passes `keep`, and that every history

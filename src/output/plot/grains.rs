@@ -1,6 +1,7 @@
 //! Pictures of the sample at one increment, drawn to scale: the grains with the force
-//! chains and broken bonds (thesis figs. 39 and 44), the displacement field (fig. 26) and
-//! the rotation field (fig. 42).
+//! chains and broken bonds (thesis figs. 39 and 44), the displacement field (fig. 26), the
+//! rotation field (fig. 42), and each cluster of grains that broke out of it. Grains taken
+//! out of the sample are drawn faded where they were taken out.
 
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -23,6 +24,8 @@ pub(super) enum Field {
     Displacement,
     /// Grains coloured by their rotation since the start, with a radial line each.
     Rotation,
+    /// The grains of one breakout (its index in the state's) filled, against the sample.
+    Breakout(usize),
 }
 
 const MARGIN: u32 = 20;
@@ -37,6 +40,14 @@ const MIN_WIDTH: u32 = 1000;
 /// Broken bonds by mode.
 const BROKEN_TENSION: RGBColor = RGBColor(0, 114, 178);
 const BROKEN_SHEAR: RGBColor = RGBColor(0, 158, 115);
+
+/// Grains taken out of the sample: filled in a pale grey, where the sample's are outlines.
+const TAKEN_OUT: RGBColor = RGBColor(218, 218, 218);
+/// The cluster of a breakout picture.
+const CLUSTER: RGBColor = RGBColor(213, 94, 0);
+
+/// A grain as drawn: its centre in display units and its radius in pixels.
+type Disc = ((f64, f64), u32);
 
 /// A picture of the sample at one increment.
 pub(super) struct SamplePicture<'a> {
@@ -105,19 +116,29 @@ impl<'a> SamplePicture<'a> {
     }
 
     fn bar(&self) -> u32 {
-        if self.field == Field::Forces {
-            0
-        } else {
-            BAR
+        match self.field {
+            Field::Forces | Field::Breakout(_) => 0,
+            Field::Displacement | Field::Rotation => BAR,
         }
     }
 
     fn legend(&self) -> u32 {
-        if self.field == Field::Forces {
-            LEGEND
-        } else {
-            0
+        match self.field {
+            Field::Forces | Field::Breakout(_) => LEGEND,
+            Field::Displacement | Field::Rotation => 0,
         }
+    }
+
+    /// The grains, split into those in the sample and those taken out of it, `px` turning
+    /// metres into pixels.
+    fn circles(&self, px: impl Fn(f64) -> f64) -> [Vec<Disc>; 2] {
+        let g = &self.state.grains;
+        let mut split = [Vec::new(), Vec::new()];
+        for i in 0..g.len() {
+            let radius = px(g.radius[i]).round().max(1.0) as u32;
+            split[usize::from(g.taken_out[i])].push((self.at(g.position[i]), radius));
+        }
+        split
     }
 
     /// Display coordinates of a point.
@@ -125,10 +146,11 @@ impl<'a> SamplePicture<'a> {
         (p[0] * self.length.factor, p[1] * self.length.factor)
     }
 
-    /// The largest displacement (m).
+    /// The largest displacement of a grain in the sample (m).
     fn longest_displacement(&self) -> f64 {
-        let u = &self.state.grains.displacement;
-        u.iter().map(|u| u[0].hypot(u[1])).fold(0.0, f64::max)
+        let g = &self.state.grains;
+        let u = |i: usize| g.displacement[i][0].hypot(g.displacement[i][1]);
+        g.in_sample().map(u).fold(0.0, f64::max)
     }
 
     /// Arrow magnification of the displacement field: the longest arrow about three mean
@@ -196,24 +218,60 @@ impl Picture for SamplePicture<'_> {
             let points: Vec<_> = line.iter().map(|p| self.at(*p)).collect();
             PathElement::new(points, WALL.stroke_width(wall_width))
         }))?;
+        let [in_sample, taken_out] = self.circles(px);
+        chart.draw_series(
+            (taken_out.iter()).map(|&(at, radius)| Circle::new(at, radius, TAKEN_OUT.filled())),
+        )?;
+        let taken_out_entry = (!taken_out.is_empty())
+            .then(|| (format!("taken out ({})", taken_out.len()), TAKEN_OUT, 8));
         match self.field {
             Field::Forces => {
-                chart.draw_series(g.position.iter().zip(&g.radius).map(|(p, r)| {
-                    Circle::new(self.at(*p), px(*r).round().max(1.0) as u32, GRAIN)
+                chart.draw_series(
+                    (in_sample.iter()).map(|&(at, radius)| Circle::new(at, radius, GRAIN)),
+                )?;
+                let mut entries = self.draw_forces(&mut chart, px(g.mean_radius()))?;
+                entries.extend(taken_out_entry);
+                legend(&strip, &entries)?;
+            }
+            Field::Breakout(k) => {
+                chart.draw_series(
+                    (in_sample.iter()).map(|&(at, radius)| Circle::new(at, radius, GRAIN)),
+                )?;
+                let cluster = &self.state.breakouts[k].grains;
+                chart.draw_series(cluster.iter().map(|&i| {
+                    let radius = (px(g.radius[i]) - 1.0).round().max(1.0) as u32;
+                    Circle::new(self.at(g.position[i]), radius, CLUSTER.filled())
                 }))?;
-                let entries = self.draw_forces(&mut chart, px(g.mean_radius()))?;
+                let mut entries = vec![
+                    ("in the sample".into(), GRAIN, 4),
+                    (
+                        format!(
+                            "broken out in increment {}",
+                            self.state.breakouts[k].increment
+                        ),
+                        CLUSTER,
+                        8,
+                    ),
+                ];
+                if taken_out.len() > cluster.len() {
+                    let others = taken_out.len() - cluster.len();
+                    entries.push((format!("other breakouts ({others} grains)"), TAKEN_OUT, 8));
+                }
                 legend(&strip, &entries)?;
             }
             Field::Displacement => {
-                chart.draw_series(g.position.iter().zip(&g.radius).map(|(p, r)| {
-                    Circle::new(self.at(*p), px(*r).round().max(1.0) as u32, GRAIN.mix(0.6))
-                }))?;
+                chart.draw_series(
+                    in_sample
+                        .iter()
+                        .map(|&(at, radius)| Circle::new(at, radius, GRAIN.mix(0.6))),
+                )?;
                 let longest = self.longest_displacement();
                 let unit = si_unit(longest, "m");
                 let k = self.magnification();
                 let head = 0.6 * g.mean_radius();
                 let width = (px(g.mean_radius()) * 0.15).clamp(1.0, 4.0) as u32;
-                for (p, u) in g.position.iter().zip(&g.displacement) {
+                for i in g.in_sample() {
+                    let (p, u) = (&g.position[i], &g.displacement[i]);
                     let length = u[0].hypot(u[1]);
                     if length == 0.0 {
                         continue;
@@ -246,26 +304,21 @@ impl Picture for SamplePicture<'_> {
                 )?;
             }
             Field::Rotation => {
-                let largest = max_abs(&g.rotation);
+                let rotation = |i: usize| g.rotation[i];
+                let largest = max_abs(g.in_sample().map(|i| &g.rotation[i]));
                 let span = if largest > 0.0 { largest } else { 1.0 };
-                chart.draw_series(g.position.iter().zip(&g.radius).zip(&g.rotation).map(
-                    |((p, r), theta)| {
-                        // One pixel less than the radius leaves a gap between touching grains.
-                        let radius = (px(*r) - 1.0).round().max(1.0) as u32;
-                        Circle::new(
-                            self.at(*p),
-                            radius,
-                            diverging(0.5 + 0.5 * theta / span).filled(),
-                        )
-                    },
-                ))?;
+                chart.draw_series(g.in_sample().map(|i| {
+                    // One pixel less than the radius leaves a gap between touching grains.
+                    let radius = (px(g.radius[i]) - 1.0).round().max(1.0) as u32;
+                    let colour = diverging(0.5 + 0.5 * rotation(i) / span);
+                    Circle::new(self.at(g.position[i]), radius, colour.filled())
+                }))?;
                 // A radial line per grain that pointed up at the start (fig. 42).
-                chart.draw_series(g.position.iter().zip(&g.radius).zip(&g.rotation).map(
-                    |((p, r), theta)| {
-                        let rim = [p[0] - r * theta.sin(), p[1] + r * theta.cos()];
-                        PathElement::new(vec![self.at(*p), self.at(rim)], BLACK.stroke_width(1))
-                    },
-                ))?;
+                chart.draw_series(g.in_sample().map(|i| {
+                    let (p, r, theta) = (g.position[i], g.radius[i], rotation(i));
+                    let rim = [p[0] - r * theta.sin(), p[1] + r * theta.cos()];
+                    PathElement::new(vec![self.at(p), self.at(rim)], BLACK.stroke_width(1))
+                }))?;
                 let unit = si_unit(span, "rad");
                 colour_bar(
                     &bar,

@@ -25,7 +25,7 @@ use charts::{LineChart, Series};
 use grains::{Field, SamplePicture};
 use radar::{Fabric, Radar, RadarSeries, BINS};
 use study::{ErrorChart, ErrorSeries};
-use style::{load_font, max_abs, save, si_unit, PALETTE};
+use style::{load_font, max_abs, save, si_unit, significant, PALETTE};
 
 /// Where the pictures of `result` go unless told: `NAME-plots/` beside `NAME.h5`.
 pub fn default_dir(result: &Path) -> PathBuf {
@@ -132,6 +132,28 @@ pub fn plot(
         let title = format!("{}: {what}, {at}", header.scene_name);
         let picture = SamplePicture::new(field, title, &state);
         written.extend(save(&picture, &dir, &format!("{name}-{tag}"))?);
+    }
+    // Each cluster that broke out, against the sample as it is at the increment plotted.
+    for (k, breakout) in state.breakouts.iter().enumerate() {
+        let loads: Vec<String> = (breakout.carried(&state.membranes, &state.walls).iter())
+            .map(|(name, v)| {
+                let unit = si_unit(v.abs(), "Pa");
+                format!("{name} {} {}", significant(v * unit.factor, 4), unit.unit)
+            })
+            .collect();
+        let loads = match loads.is_empty() {
+            true => String::new(),
+            false => format!(" at {}", loads.join(", ")),
+        };
+        let title = format!(
+            "{}: breakout {} of {}, {} grains{loads}; {at}",
+            header.scene_name,
+            k + 1,
+            state.breakouts.len(),
+            breakout.grains.len()
+        );
+        let picture = SamplePicture::new(Field::Breakout(k), title, &state);
+        written.extend(save(&picture, &dir, &format!("breakout-{}-{tag}", k + 1))?);
     }
 
     let start = if first == increment {

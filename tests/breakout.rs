@@ -1,0 +1,195 @@
+//! Breakouts (thesis 4.4.2): a cluster of grains taken out of a running simulation leaves a
+//! sample that solves, with the cluster held where it was and counted nowhere; a run
+//! resumed after it repeats the uninterrupted one bit for bit; the cylinder report, the
+//! pictures and `grainstat info` show it.
+
+use grainstat::contact::BreakMode;
+use grainstat::estimate::{cylinder_failure, CylinderBreakout};
+use grainstat::geometry::Side;
+use grainstat::output::plot::plot;
+use grainstat::output::{info, read_state, ResultFile};
+use grainstat::run;
+use grainstat::samples::cemented_annulus;
+use grainstat::scene::build_grains;
+use grainstat::simulation::{anchors, membrane_carriers, Simulation};
+use grainstat::solver::SolverConfig;
+use std::path::Path;
+
+/// The small cemented annulus, fresh.
+fn annulus(increments: usize) -> (grainstat::scene::Scene, Simulation) {
+    let scene = cemented_annulus(3.0, 8.0, increments);
+    let grains = build_grains(&scene.grains, Path::new("."), "annulus").unwrap();
+    let sim = Simulation::new(&scene, grains, SolverConfig::default(), "annulus").unwrap();
+    (scene, sim)
+}
+
+/// The grain on the borehole's surface on the positive x axis and its neighbours on the
+/// surface: a cluster that could break out.
+fn surface_cluster(sim: &Simulation) -> Vec<usize> {
+    let g = &sim.state.grains;
+    let distance = |i: usize| g.position[i][0].hypot(g.position[i][1]);
+    let inner = (0..g.len()).map(distance).fold(f64::INFINITY, f64::min);
+    let r = g.radius[0];
+    let surface: Vec<usize> = (0..g.len()).filter(|&i| distance(i) < inner + r).collect();
+    let first = *surface
+        .iter()
+        .max_by(|&&a, &&b| g.position[a][0].total_cmp(&g.position[b][0]))
+        .unwrap();
+    let near = |i: usize| {
+        let d = g.branch(first, i);
+        d[0].hypot(d[1]) < 2.1 * r
+    };
+    surface.into_iter().filter(|&i| near(i)).collect()
+}
+
+#[test]
+fn a_cluster_taken_out_of_the_borehole_leaves_a_sample_that_solves() {
+    let (_, mut sim) = annulus(4);
+    let n = sim.state.grains.len();
+    for _ in 0..2 {
+        sim.run_increment().unwrap();
+    }
+    let cluster = surface_cluster(&sim);
+    assert!(cluster.len() >= 2);
+    let out = |i: usize| cluster.contains(&i);
+    let bonds_across = (sim.state.contacts.contacts.iter())
+        .filter(|c| c.bonded && matches!(c.pair.a, Side::Grain(a) if out(a) != out(c.pair.b)))
+        .count();
+    assert!(bonds_across > 0);
+    let before = sim.state.grains.clone();
+    let broken_before = sim.state.contacts.broken_bonds.len();
+    let breakout = sim.take_out(&cluster).unwrap();
+    let (grains, contacts) = (&sim.state.grains, &sim.state.contacts.contacts);
+    let carriers = membrane_carriers(grains, contacts);
+    assert!(cluster.iter().all(|&i| !carriers[i]));
+    let anchored = anchors(grains, &sim.state.walls, contacts);
+    assert!(!anchored.is_empty() && anchored.iter().all(|a| !out(a.grain)));
+    assert_eq!(breakout.increment, 3);
+    assert_eq!(breakout.grains, cluster);
+    assert_eq!(breakout.bonds_broken, bonds_across);
+    assert_eq!(breakout.pressure, [sim.state.membranes[0].pressure]);
+    assert_eq!(sim.state.breakouts, [breakout]);
+    let broken = &sim.state.contacts.broken_bonds[broken_before..];
+    assert_eq!(broken.len(), bonds_across);
+    assert!(broken
+        .iter()
+        .all(|b| b.increment == 3 && b.mode == BreakMode::Tension));
+    for _ in 0..2 {
+        let report = sim.run_increment().unwrap();
+        let (error, grain) = sim.equilibrium_error();
+        assert!(error < 1e-6, "imbalance {error:e} at grain {grain}");
+        let g = &sim.state.grains;
+        for &i in &cluster {
+            assert!(g.taken_out[i]);
+            assert_eq!(g.position[i], before.position[i]);
+            assert_eq!(g.displacement[i], before.displacement[i]);
+            assert_eq!(g.rotation[i], before.rotation[i]);
+        }
+        let touching = |c: &grainstat::contact::Contact| {
+            out(c.pair.b) || matches!(c.pair.a, Side::Grain(a) if out(a))
+        };
+        assert!(!sim.state.contacts.contacts.iter().any(touching));
+        let m = &report.measurements;
+        let expected = 2.0 * m.grain_contacts as f64 / (n - cluster.len()) as f64;
+        assert_eq!(m.contacts_per_grain, expected);
+    }
+    assert_eq!(sim.state.membranes[0].pressure, 5e6);
+}
+
+/// Run `sim`'s next increment and write it to `file`, as `run::run_to_end` does with
+/// `every = 1`.
+fn step(sim: &mut Simulation, file: &mut ResultFile) {
+    let report = sim
+        .run_increment()
+        .unwrap_or_else(|e| panic!("increment {}: {e}", sim.state.increment + 1));
+    sim.refresh_factorisation();
+    file.write_increment(&sim.state, &report, &sim.stats)
+        .unwrap();
+}
+
+#[test]
+fn a_run_resumed_after_a_breakout_repeats_the_uninterrupted_one_and_reports_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let (scene, mut sim) = annulus(5);
+    let scene_text = toml::to_string(&scene).unwrap();
+    let whole = dir.path().join("whole.h5");
+    let mut file = ResultFile::create(&whole, &run::header(&sim, &scene_text, "")).unwrap();
+    file.write_increment(&sim.state, &run::initial_report(&sim), &sim.stats)
+        .unwrap();
+    for _ in 0..2 {
+        step(&mut sim, &mut file);
+    }
+    let cluster = surface_cluster(&sim);
+    let breakout = sim.take_out(&cluster).unwrap();
+    while !sim.is_finished() {
+        step(&mut sim, &mut file);
+    }
+
+    // Resumed from the increment the cluster broke out in, and from the one before with the
+    // same cluster taken out again (a run killed before it wrote the breakout), each into a
+    // file of its own.
+    for from in [3, 2] {
+        let (header, state) = read_state(&whole, from).unwrap();
+        let config = SolverConfig::default();
+        let mut resumed = Simulation::resume(&scene, state, header.depth, config).unwrap();
+        if from == 2 {
+            assert_eq!(resumed.take_out(&cluster).unwrap(), breakout);
+        }
+        assert_eq!(resumed.state.breakouts, std::slice::from_ref(&breakout));
+        let again = dir.path().join(format!("resumed-{from}.h5"));
+        let mut file = ResultFile::create(&again, &header).unwrap();
+        while !resumed.is_finished() {
+            step(&mut resumed, &mut file);
+        }
+        for k in from + 1..=5 {
+            let a = read_state(&whole, k).unwrap().1;
+            let b = read_state(&again, k).unwrap().1;
+            assert!(a == b, "increment {k} differs, resumed from {from}");
+        }
+    }
+
+    // The cylinder report: the pressure at the first breakout, the grains broken out.
+    let failure = cylinder_failure(&whole).unwrap().expect("a cylinder test");
+    let expected = CylinderBreakout {
+        increment: 3,
+        pressure: 3e6,
+        grains: cluster.len(),
+        bonds_broken: breakout.bonds_broken,
+    };
+    assert_eq!(failure.breakouts, [expected]);
+    assert_eq!(failure.first_breakout(), Some(3e6));
+    let broken_out: Vec<usize> = failure.rows.iter().map(|r| r.broken_out).collect();
+    let n = cluster.len();
+    assert_eq!(broken_out, [0, 0, 0, n, n, n]);
+    let csv = failure.csv();
+    assert!(
+        csv.lines().next().unwrap().ends_with(",broken_out"),
+        "{csv}"
+    );
+    let row = csv.lines().find(|l| l.starts_with("3,")).unwrap();
+    assert!(row.ends_with(&format!(",{n}")), "{row}");
+    let markdown = failure.markdown();
+    for needle in [
+        "| pressure at the first breakout (functional failure) | 3.000e6 | Pa |".to_string(),
+        format!(
+            "| 1 | 3 | 3.000e6 | {n} | {} | {n} |",
+            breakout.bonds_broken
+        ),
+    ] {
+        assert!(markdown.contains(&needle), "no {needle:?} in:\n{markdown}");
+    }
+
+    // The pictures: one of the breakout, and `grainstat info`.
+    let plots = dir.path().join("plots");
+    let written = plot(&whole, Some(&plots), None).unwrap();
+    for name in [
+        "breakout-1-00000005.png",
+        "cylinder.csv",
+        "forces-00000005.png",
+    ] {
+        assert!(written.contains(&plots.join(name)), "{name} not written");
+    }
+    let text = info(&whole).unwrap();
+    let line = format!("breakouts          1: increment 3 ({n} grains");
+    assert!(text.contains(&line), "no {line:?} in:\n{text}");
+}
