@@ -19,7 +19,8 @@ use faer::linalg::cholesky::ldlt::factor::LdltRegularization;
 use faer::linalg::cholesky::llt::factor::LltRegularization;
 use faer::perm::PermRef;
 use faer::sparse::linalg::cholesky::supernodal::{
-    factorize_supernodal_numeric_ldlt, factorize_supernodal_numeric_llt, SupernodalLdltRef,
+    factorize_supernodal_numeric_ldlt, factorize_supernodal_numeric_ldlt_scratch,
+    factorize_supernodal_numeric_llt, factorize_supernodal_numeric_llt_scratch, SupernodalLdltRef,
     SupernodalLltRef, SymbolicSupernodalCholesky,
 };
 use faer::sparse::linalg::cholesky::{
@@ -84,7 +85,7 @@ impl Cholesky {
             params,
         )?;
         let perm = symbolic.perm().expect("an AMD ordering");
-        let (ordered, source) = permute(pattern, perm)?;
+        let (ordered, source) = permute(pattern, perm);
         let n = pattern.nrows();
         let diagonal = (0..n)
             .map(|j| {
@@ -137,7 +138,7 @@ fn order(symbolic: &SymbolicCholesky<usize>) -> (&[usize], &[usize]) {
 fn permute(
     pattern: &SymbolicSparseColMat<usize>,
     perm: PermRef<'_, usize>,
-) -> Result<(SymbolicSparseColMat<usize>, Vec<usize>), faer::sparse::FaerError> {
+) -> (SymbolicSparseColMat<usize>, Vec<usize>) {
     let (n, nnz) = (pattern.nrows(), pattern.row_idx().len());
     // Each entry's index as its value (exact: far below 2^53), carried along by faer.
     let index: Vec<f64> = (0..nnz).map(|k| k as f64).collect();
@@ -157,7 +158,7 @@ fn permute(
     row_idx.truncate(len);
     let source = source[..len].iter().map(|&k| k as usize).collect();
     let ordered = SymbolicSparseColMat::new_unsorted_checked(n, n, col_ptr, None, row_idx);
-    Ok((ordered, source))
+    (ordered, source)
 }
 
 enum Symbolic {
@@ -212,10 +213,19 @@ impl LinearSolver {
         self.symbolic = match self.kind {
             LinearKind::Cholesky => {
                 let c = Cholesky::analyse(pattern).map_err(fail)?;
-                let s = &c.symbolic;
+                // The supernodal calls' own scratch: the matrix comes already in the order.
+                let s = supernodes(&c.symbolic);
                 self.scratch = MemBuffer::new(StackReq::any_of(&[
-                    s.factorize_numeric_llt_scratch::<f64>(self.par, Default::default()),
-                    s.factorize_numeric_ldlt_scratch::<f64>(self.par, Default::default()),
+                    factorize_supernodal_numeric_llt_scratch::<usize, f64>(
+                        s,
+                        self.par,
+                        Default::default(),
+                    ),
+                    factorize_supernodal_numeric_ldlt_scratch::<usize, f64>(
+                        s,
+                        self.par,
+                        Default::default(),
+                    ),
                     s.solve_in_place_scratch::<f64>(1, self.par),
                 ]));
                 Symbolic::Cholesky(Box::new(c))
