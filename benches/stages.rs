@@ -143,6 +143,7 @@ fn stages(c: &mut Criterion) {
             lagged: false,
             frame_correction: Vec::new(),
             rotation_scratch: Default::default(),
+            closing_scratch: Default::default(),
             refreeze: false,
             projected: false,
             loads: Vec::new(),

@@ -1,7 +1,7 @@
 //! The equilibrium equations of one load increment: residual `R = f_ext + f_contact` on every
 //! unknown, and the tangent `K = -dR/du`, assembled into the fixed pattern.
 
-use super::potential::RotationScratch;
+use super::potential::{ClosingScratch, RotationScratch};
 use super::LoadStep;
 use crate::assembly::{contact_block, frame_turn_force, BlockTangent, DofMap, PairMap, Pattern};
 use crate::contact::{kinematics, Configuration, Contact, ContactLaw, Kinematics, SlipTangent};
@@ -249,6 +249,8 @@ pub struct IncrementEquations<'a> {
     pub frame_correction: Vec<f64>,
     /// Buffers the grains' rotation balance keeps between calls.
     pub rotation_scratch: RotationScratch,
+    /// Buffers the closing fraction of a step keeps between calls.
+    pub closing_scratch: ClosingScratch,
 }
 
 impl IncrementEquations<'_> {

@@ -444,6 +444,7 @@ impl Simulation {
             lagged: self.config.strategy == Strategy::Minimise,
             frame_correction: Vec::new(),
             rotation_scratch: Default::default(),
+            closing_scratch: Default::default(),
             refreeze: false,
             projected: self.config.strategy == Strategy::Minimise,
             loads: Vec::new(),

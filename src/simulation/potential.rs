@@ -49,6 +49,14 @@ pub struct RotationScratch {
     turning: Vec<(f64, f64, f64)>,
 }
 
+/// What [`Potential::closing`] keeps between calls, so that it allocates nothing: the
+/// contacts apart with their overlaps at the start of the step, and where the step ends.
+#[derive(Debug, Default)]
+pub struct ClosingScratch {
+    apart: Vec<(usize, f64)>,
+    end: Vec<f64>,
+}
+
 impl IncrementEquations<'_> {
     /// The response of contact `c` in the minimisation (method note, step 2): the normal
     /// force from the overlap, the friction from the lagged potential, and the contact's
@@ -283,26 +291,31 @@ impl Potential for IncrementEquations<'_> {
         // closing overlap leaves at least that much.
         let closing = CLOSING_OVERLAP * self.r_mean;
         self.configure(u);
-        let apart: Vec<(usize, f64)> = (self.contacts.iter().enumerate())
-            .filter(|(_, c)| !c.bonded)
-            .map(|(i, c)| {
-                (
-                    i,
-                    kinematics(c.pair, self.grains, self.walls, self.q).overlap,
-                )
-            })
-            .filter(|&(_, overlap)| overlap < closing)
-            .collect();
-        let end: Vec<f64> = u.iter().zip(du).map(|(a, b)| a + b).collect();
+        let ClosingScratch { mut apart, mut end } = std::mem::take(&mut self.closing_scratch);
+        apart.clear();
+        apart.extend(
+            (self.contacts.iter().enumerate())
+                .filter(|(_, c)| !c.bonded)
+                .map(|(i, c)| {
+                    (
+                        i,
+                        kinematics(c.pair, self.grains, self.walls, self.q).overlap,
+                    )
+                })
+                .filter(|&(_, overlap)| overlap < closing),
+        );
+        end.clear();
+        end.extend(u.iter().zip(du).map(|(a, b)| a + b));
         self.configure(&end);
         let mut fraction = 1.0f64;
-        for (i, overlap0) in apart {
+        for &(i, overlap0) in &apart {
             let pair = self.contacts[i].pair;
             let overlap1 = kinematics(pair, self.grains, self.walls, self.q).overlap;
             if overlap1 > closing {
                 fraction = fraction.min((closing - overlap0) / (overlap1 - overlap0));
             }
         }
+        self.closing_scratch = ClosingScratch { apart, end };
         fraction
     }
 

@@ -242,7 +242,7 @@ pub fn minimise(
     let mut frozen = true;
     // Semi-smooth Newton: on once the lag stalls, off again where its step fails.
     let (mut semismooth, mut stalls) = (false, 0usize);
-    let mut consistent = Vec::new();
+    let (mut consistent, mut gmres) = (Vec::new(), krylov::Gmres::default());
     // The grain last moved to its own equilibrium, with the states of its contacts there.
     let mut balanced: (usize, Vec<u8>) = (usize::MAX, Vec::new());
     while !out.at_reach {
@@ -296,7 +296,7 @@ pub fn minimise(
                 continue;
             }
             du.fill(0.0);
-            let solved = krylov::gmres(
+            let solved = gmres.solve(
                 &mut |v, out| krylov::multiply(symbolic, &consistent, v, out),
                 &mut |v| linear.solve_in_place(v, stats),
                 &residual,
