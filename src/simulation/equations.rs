@@ -1,6 +1,7 @@
 //! The equilibrium equations of one load increment: residual `R = f_ext + f_contact` on every
 //! unknown, and the tangent `K = -dR/du`, assembled into the fixed pattern.
 
+use super::potential::{ClosingScratch, RotationScratch};
 use super::LoadStep;
 use crate::assembly::{contact_block, frame_turn_force, BlockTangent, DofMap, PairMap, Pattern};
 use crate::contact::{kinematics, Configuration, Contact, ContactLaw, Kinematics, SlipTangent};
@@ -246,6 +247,10 @@ pub struct IncrementEquations<'a> {
     /// What the true residual had beyond the exact gradient at the last refreeze, held as a
     /// load until the next (a lagged, non-conservative part, like a follower load's).
     pub frame_correction: Vec<f64>,
+    /// Buffers the grains' rotation balance keeps between calls.
+    pub rotation_scratch: RotationScratch,
+    /// Buffers the closing fraction of a step keeps between calls.
+    pub closing_scratch: ClosingScratch,
 }
 
 impl IncrementEquations<'_> {
@@ -358,12 +363,7 @@ impl IncrementEquations<'_> {
     /// nothing that changes: a chain of glued grains along a side that the top's move
     /// compressed would otherwise carry load past the sample.
     pub fn is_glue(&self, pair: Pair) -> bool {
-        let wall_of = |g: usize| self.dofs.glue[g].map(|glue| glue.wall);
-        let a = match pair.a {
-            Side::Wall(w) => Some(w),
-            Side::Grain(a) => wall_of(a),
-        };
-        a.is_some() && a == wall_of(pair.b)
+        self.dofs.glues(pair)
     }
 
     /// Kinematics and the return map of contact `idx` in the current configuration.
@@ -509,38 +509,47 @@ impl IncrementEquations<'_> {
         self.load_scale = sum_ext / loaded;
         self.update_contacts()?;
         let start = Instant::now();
-        // Glue contacts carry nothing that changes (see `is_glue`): they count nowhere.
-        let glue: Vec<bool> = self.contacts.iter().map(|c| self.is_glue(c.pair)).collect();
-        let (mut sum_fn, mut energy) = (0.0, 0.0);
-        for (c, _) in self.contacts.iter().zip(&glue).filter(|(_, &g)| !g) {
-            sum_fn += c.response.normal_force.abs();
-            energy += c.energy;
+        // Glue contacts carry nothing that changes (see `is_glue`): they count nowhere but
+        // among the engaged.
+        let (mut sum_fn, mut energy, mut engaged) = (0.0, 0.0, 0usize);
+        for c in self.contacts.iter() {
+            engaged += usize::from(Self::engaged(c));
+            if !self.is_glue(c.pair) {
+                sum_fn += c.response.normal_force.abs();
+                energy += c.energy;
+            }
         }
         self.energy = energy;
         // Each contact's block added in the contacts' order, on the threads' shares of the
-        // unknowns; a glue contact's map is empty.
+        // unknowns; the map of a glue contact, or of one whose block is zero, is empty.
         let (walls, dofs, kin, contacts) = (self.walls, self.dofs, &*self.kin, &*self.contacts);
-        let tangent_kind = self.block_tangent();
+        let tangent_kind = tangent.is_some().then(|| self.block_tangent());
         // In the lagged problem the shear forces push as the exact gradient of the potential;
         // what the true residual has beyond that is taken at each refreeze and held as a load
         // until the next (a lagged non-conservative part, like a follower load's), so that the
         // line search and the residual agree and a refrozen residual is the true one.
         let exact = self.lagged && !self.consistent;
         let map_of = |i: usize| {
-            let map = dofs.pair_map(
-                contacts[i].pair,
-                push_direction(walls, contacts[i].pair, &kin[i]),
-            );
-            if glue[i] {
-                PairMap { len: 0, ..map }
+            let c = &contacts[i];
+            if c.response.is_zero() || dofs.glues(c.pair) {
+                PairMap::default()
             } else {
-                map
+                dofs.pair_map(c.pair, push_direction(walls, c.pair, &kin[i]))
             }
         };
         self.pattern.scatter(
             self.pair_index,
             map_of,
-            |i, map| contact_block(&kin[i], &contacts[i].response, map, tangent_kind, exact),
+            |i, map, out| {
+                contact_block(
+                    &kin[i],
+                    &contacts[i].response,
+                    map,
+                    tangent_kind,
+                    exact,
+                    out,
+                )
+            },
             residual,
             tangent.as_deref_mut(),
         );
@@ -551,7 +560,7 @@ impl IncrementEquations<'_> {
             self.pattern.scatter(
                 self.pair_index,
                 map_of,
-                |i, map| frame_turn_force(&kin[i], &contacts[i].response, map),
+                |i, map, out| frame_turn_force(&kin[i], &contacts[i].response, map, out),
                 correction,
                 None,
             );
@@ -583,7 +592,7 @@ impl IncrementEquations<'_> {
         // friends lists is a contact), or, while contacts carry (almost) nothing, the wall
         // loads shared over the grains touching the loaded walls.
         let counted = if self.lagged {
-            self.contacts.iter().filter(|c| Self::engaged(c)).count()
+            engaged
         } else {
             self.contacts.len()
         };

@@ -9,6 +9,7 @@ mod increment;
 mod load_step;
 mod newton_step;
 mod potential;
+mod probe;
 mod relaxation;
 mod setup;
 mod stability;
@@ -442,6 +443,8 @@ impl Simulation {
             load_scale: 0.0,
             lagged: self.config.strategy == Strategy::Minimise,
             frame_correction: Vec::new(),
+            rotation_scratch: Default::default(),
+            closing_scratch: Default::default(),
             refreeze: false,
             projected: self.config.strategy == Strategy::Minimise,
             loads: Vec::new(),

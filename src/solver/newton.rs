@@ -164,6 +164,7 @@ pub fn solve(
     let mut trial_values = vec![0.0; values.len()];
     let mut du = vec![0.0; n];
     let mut trial_u = vec![0.0; n];
+    let mut gmres = krylov::Gmres::default();
 
     // The start counts as far until the first residual says otherwise.
     eq.set_far(true);
@@ -220,15 +221,16 @@ pub fn solve(
                 solved = settings.reuse_factorisation
                     && linear.kind() == LinearKind::Lu
                     && linear.is_factorized()
-                    && krylov::gmres(
-                        &mut |v, out| krylov::multiply(symbolic, &regularised, v, out),
-                        &mut |v| linear.solve_in_place(v, stats),
-                        &residual,
-                        &mut du,
-                        KRYLOV_TOLERANCE,
-                        KRYLOV_ITERATIONS,
-                    )
-                    .is_some();
+                    && gmres
+                        .solve(
+                            &mut |v, out| krylov::multiply(symbolic, &regularised, v, out),
+                            &mut |v| linear.solve_in_place(v, stats),
+                            &residual,
+                            &mut du,
+                            KRYLOV_TOLERANCE,
+                            KRYLOV_ITERATIONS,
+                        )
+                        .is_some();
                 if solved {
                     stats.counters.factorisations_reused += 1;
                 } else {
