@@ -15,7 +15,7 @@ use std::path::Path;
 use super::significant;
 use crate::geometry::{GrainSet, MembraneShape, Side};
 use crate::measure::ring_stresses;
-use crate::output::{read_increments, read_state};
+use crate::output::{read_increments, read_mechanism, read_state};
 use crate::scene::{parse_scene, LawKind};
 use crate::Error;
 
@@ -122,6 +122,10 @@ pub struct CylinderFailure {
     /// The elastic stage against eq. A.113, when an increment after the first is written
     /// before any bond broke.
     pub lame: Option<LameProfile>,
+    /// The grains carried on when the test ended on no equilibrium near after the last
+    /// written increment: the borehole collapsing as a whole (a cluster too large to be
+    /// taken out as a breakout).
+    pub collapse: Option<usize>,
 }
 
 impl CylinderFailure {
@@ -141,9 +145,14 @@ impl CylinderFailure {
         self.first(|r| r.broken_in_region as f64 >= LOCAL_FAILURE * bonds)
     }
 
-    /// Pressure at which the first cluster of grains broke out of the borehole's surface.
+    /// Pressure at which the first cluster of grains broke out of the borehole's surface: the
+    /// first breakout taken out, else the collapse that ended the test, at the last pressure
+    /// in equilibrium.
     pub fn first_breakout(&self) -> Option<f64> {
-        self.breakouts.first().map(|b| b.pressure)
+        match self.breakouts.first() {
+            Some(b) => Some(b.pressure),
+            None => self.collapse.and(self.rows.last().map(|r| r.pressure)),
+        }
     }
 
     /// The summary as (name, value, unit) rows.
@@ -191,6 +200,11 @@ impl CylinderFailure {
                 "last pressure in equilibrium".into(),
                 self.rows.last().map_or(nan, |r| r.pressure),
                 "Pa",
+            ),
+            (
+                "grains carried on past it (no equilibrium near)".into(),
+                self.collapse.map_or(0.0, |n| n as f64),
+                "-",
             ),
         ];
         if let Some(p) = &self.prediction {
@@ -464,6 +478,10 @@ pub fn cylinder_failure(result: &Path) -> Result<Option<CylinderFailure>, Error>
             let cohesion = s.material.cohesion * density / (16.0 * 2f64.sqrt());
             predict_cylinder(a, b, d, cohesion, (1.0f64 / 3.0).asin())
         });
+    let last = increments.last().copied();
+    let collapse = read_mechanism(result)?
+        .filter(|m| Some(m.increment) == last.map(|k| k + 1))
+        .map(|m| m.grains.len());
     Ok(Some(CylinderFailure {
         radii: [a, b],
         region_radius,
@@ -473,6 +491,7 @@ pub fn cylinder_failure(result: &Path) -> Result<Option<CylinderFailure>, Error>
         breakouts,
         prediction,
         lame,
+        collapse,
     }))
 }
 
@@ -528,9 +547,17 @@ mod tests {
             breakouts: Vec::new(),
             prediction: None,
             lame: None,
+            collapse: None,
         };
         assert_eq!(failure.first_break(), Some(2e6));
         assert_eq!(failure.local_failure(), Some(4e6));
+        assert_eq!(failure.first_breakout(), None);
+        // The borehole collapsing past the last increment is its first breakout.
+        let collapsed = CylinderFailure {
+            collapse: Some(150),
+            ..failure
+        };
+        assert_eq!(collapsed.first_breakout(), Some(4e6));
     }
 
     #[test]

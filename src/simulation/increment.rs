@@ -176,6 +176,13 @@ impl Simulation {
         self.follow_path(&second, rest, report)
     }
 
+    /// Each grain's displacement in the last descent, from the state it started at: after an
+    /// error of no equilibrium near, how the descent carried the mechanism away from the
+    /// highest load found in equilibrium.
+    pub fn descent(&self) -> Vec<[f64; 2]> {
+        self.q.displacement.clone()
+    }
+
     /// Whether `cluster`, which no equilibrium near holds, breaks out of the sample in a stage
     /// that takes breakouts out: at most [`BREAKOUT_SHARE`] of the grains in the sample. A
     /// larger one is the sample failing as a whole.
