@@ -173,11 +173,15 @@ pub fn run_to_end(
                     }
                     // No equilibrium near: the mechanism, as the descent carried it.
                     if let NumericError::NoEquilibrium { grains, .. } = &err {
+                        let state = &sim.state;
                         f.write_mechanism(&Mechanism {
-                            increment: sim.state.increment + 1,
+                            increment: state.increment + 1,
                             description: err.to_string(),
                             grains: grains.clone(),
+                            position: state.grains.position.clone(),
                             displacement: sim.descent(),
+                            membrane_pressure: state.membranes.iter().map(|m| m.pressure).collect(),
+                            wall_stress: state.walls.walls.iter().map(|w| w.stress).collect(),
                         })?;
                     }
                 }

@@ -122,10 +122,11 @@ pub struct CylinderFailure {
     /// The elastic stage against eq. A.113, when an increment after the first is written
     /// before any bond broke.
     pub lame: Option<LameProfile>,
-    /// The grains carried on when the test ended on no equilibrium near after the last
-    /// written increment: the borehole collapsing as a whole (a cluster too large to be
-    /// taken out as a breakout).
-    pub collapse: Option<usize>,
+    /// The grains carried on and the pressure carried when the test ended on no equilibrium
+    /// near after the last written increment: the cylinder failing as a whole (a mechanism
+    /// too large to be taken out as a breakout), at the highest pressure found in
+    /// equilibrium.
+    pub mechanism: Option<(usize, f64)>,
 }
 
 impl CylinderFailure {
@@ -145,14 +146,16 @@ impl CylinderFailure {
         self.first(|r| r.broken_in_region as f64 >= LOCAL_FAILURE * bonds)
     }
 
-    /// Pressure at which the first cluster of grains broke out of the borehole's surface: the
-    /// first breakout taken out, else the collapse that ended the test, at the last pressure
-    /// in equilibrium.
+    /// Pressure at which the first cluster of grains broke out of the borehole's surface.
     pub fn first_breakout(&self) -> Option<f64> {
-        match self.breakouts.first() {
-            Some(b) => Some(b.pressure),
-            None => self.collapse.and(self.rows.last().map(|r| r.pressure)),
-        }
+        self.breakouts.first().map(|b| b.pressure)
+    }
+
+    /// Pressure at which the borehole lost its function: the first breakout, else the
+    /// failure as a whole that ended the test.
+    pub fn functional_failure(&self) -> Option<f64> {
+        self.first_breakout()
+            .or(self.mechanism.map(|(_, pressure)| pressure))
     }
 
     /// The summary as (name, value, unit) rows.
@@ -187,8 +190,14 @@ impl CylinderFailure {
                 "Pa",
             ),
             (
-                "pressure at the first breakout (functional failure)".into(),
+                "pressure at the first breakout".into(),
                 self.first_breakout().unwrap_or(nan),
+                "Pa",
+            ),
+            (
+                "pressure at functional failure (the first breakout, else failure as a whole)"
+                    .into(),
+                self.functional_failure().unwrap_or(nan),
                 "Pa",
             ),
             (
@@ -197,13 +206,13 @@ impl CylinderFailure {
                 "-",
             ),
             (
-                "last pressure in equilibrium".into(),
+                "pressure at the last increment on file".into(),
                 self.rows.last().map_or(nan, |r| r.pressure),
                 "Pa",
             ),
             (
-                "grains carried on past it (no equilibrium near)".into(),
-                self.collapse.map_or(0.0, |n| n as f64),
+                "grains carried on in a failure as a whole (no equilibrium near)".into(),
+                self.mechanism.map_or(0.0, |(grains, _)| grains as f64),
                 "-",
             ),
         ];
@@ -479,9 +488,9 @@ pub fn cylinder_failure(result: &Path) -> Result<Option<CylinderFailure>, Error>
             predict_cylinder(a, b, d, cohesion, (1.0f64 / 3.0).asin())
         });
     let last = increments.last().copied();
-    let collapse = read_mechanism(result)?
+    let mechanism = read_mechanism(result)?
         .filter(|m| Some(m.increment) == last.map(|k| k + 1))
-        .map(|m| m.grains.len());
+        .and_then(|m| Some((m.grains.len(), *m.membrane_pressure.get(ring)?)));
     Ok(Some(CylinderFailure {
         radii: [a, b],
         region_radius,
@@ -491,7 +500,7 @@ pub fn cylinder_failure(result: &Path) -> Result<Option<CylinderFailure>, Error>
         breakouts,
         prediction,
         lame,
-        collapse,
+        mechanism,
     }))
 }
 
@@ -547,17 +556,19 @@ mod tests {
             breakouts: Vec::new(),
             prediction: None,
             lame: None,
-            collapse: None,
+            mechanism: None,
         };
         assert_eq!(failure.first_break(), Some(2e6));
         assert_eq!(failure.local_failure(), Some(4e6));
-        assert_eq!(failure.first_breakout(), None);
-        // The borehole collapsing past the last increment is its first breakout.
-        let collapsed = CylinderFailure {
-            collapse: Some(150),
+        assert_eq!(failure.functional_failure(), None);
+        // Failing as a whole past the last increment, with no breakout before, is its
+        // functional failure, and no breakout.
+        let failed = CylinderFailure {
+            mechanism: Some((150, 4.5e6)),
             ..failure
         };
-        assert_eq!(collapsed.first_breakout(), Some(4e6));
+        assert_eq!(failed.functional_failure(), Some(4.5e6));
+        assert_eq!(failed.first_breakout(), None);
     }
 
     #[test]

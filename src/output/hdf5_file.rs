@@ -716,8 +716,15 @@ pub struct Mechanism {
     pub description: String,
     /// The grains the descent carried on, in increasing order.
     pub grains: Vec<usize>,
+    /// Each grain's centre where the descent started: the highest load found in equilibrium,
+    /// past the last increment on file where halves of the failing one converged (m).
+    pub position: Vec<[f64; 2]>,
     /// Each grain's displacement in the descent (m).
     pub displacement: Vec<[f64; 2]>,
+    /// Each membrane's pressure there (Pa).
+    pub membrane_pressure: Vec<f64>,
+    /// Each wall's stress there (Pa).
+    pub wall_stress: Vec<f64>,
 }
 
 fn write_mechanism_group(file: &File, m: &Mechanism) -> R<()> {
@@ -729,9 +736,20 @@ fn write_mechanism_group(file: &File, m: &Mechanism) -> R<()> {
     set_str_attr(&g, "description", &m.description)?;
     let grains: Array1<i64> = m.grains.iter().map(|&i| i as i64).collect();
     put_plain(&g, "grains", grains.view())?;
-    let flat = m.displacement.iter().flatten().copied().collect();
-    let displacement = Array2::from_shape_vec((m.displacement.len(), 2), flat)?;
-    put_plain(&g, "displacement", displacement.view())
+    for (name, rows) in [("position", &m.position), ("displacement", &m.displacement)] {
+        let flat = rows.iter().flatten().copied().collect();
+        put_plain(
+            &g,
+            name,
+            Array2::from_shape_vec((rows.len(), 2), flat)?.view(),
+        )?;
+    }
+    put_plain(
+        &g,
+        "membrane_pressure",
+        ArrayView1::from(&m.membrane_pressure),
+    )?;
+    put_plain(&g, "wall_stress", ArrayView1::from(&m.wall_stress))
 }
 
 fn read_mechanism_group(file: &File) -> R<Option<Mechanism>> {
@@ -739,7 +757,8 @@ fn read_mechanism_group(file: &File) -> R<Option<Mechanism>> {
         return Ok(None);
     }
     let g = file.group("failure")?;
-    let displacement = read_rows::<f64, 2>(&g, "displacement", None)?;
+    let position = read_rows::<f64, 2>(&g, "position", None)?;
+    let displacement = read_rows::<f64, 2>(&g, "displacement", Some(position.len()))?;
     let grains = (read_vec::<i64>(&g, "grains", None)?.into_iter())
         .map(|i| match usize::try_from(i) {
             Ok(i) if i < displacement.len() => Ok(i),
@@ -750,7 +769,10 @@ fn read_mechanism_group(file: &File) -> R<Option<Mechanism>> {
         increment: get_count(&g, "increment")?,
         description: get_str_attr(&g, "description")?,
         grains,
+        position,
         displacement,
+        membrane_pressure: read_vec::<f64>(&g, "membrane_pressure", None)?,
+        wall_stress: read_vec::<f64>(&g, "wall_stress", None)?,
     }))
 }
 

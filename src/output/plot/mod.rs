@@ -161,21 +161,21 @@ pub fn plot(
     // The mechanism of the failure that ended the run, after the last increment in
     // equilibrium: the grains as the descent that found no equilibrium near carried them.
     if let Some(mechanism) = read_mechanism(result)?.filter(|m| m.increment == increment + 1) {
-        if mechanism.displacement.len() != state.grains.len() {
+        if mechanism.position.len() != state.grains.len() {
             return Err(input_error(
                 result,
                 format!(
-                    "failure/displacement has {} rows for {} grains",
-                    mechanism.displacement.len(),
+                    "failure/position has {} rows for {} grains",
+                    mechanism.position.len(),
                     state.grains.len()
                 ),
             ));
         }
         let mut carried = state.clone();
+        carried.grains.position = mechanism.position;
         carried.grains.displacement = mechanism.displacement;
         let title = format!(
-            "{}: no equilibrium near in increment {}, {} grains carried on; the descent from \
-             {at}",
+            "{}: no equilibrium near in increment {}, {} grains carried on by the descent",
             header.scene_name,
             mechanism.increment,
             mechanism.grains.len()
