@@ -1,6 +1,7 @@
 //! A simulation: a scene turned into grains, walls, contacts and a load program, advanced one
 //! load increment at a time by the global solver or by grain-by-grain relaxation.
 
+mod anchors;
 mod breakout;
 mod energy;
 mod equations;
@@ -14,8 +15,9 @@ mod relaxation;
 mod setup;
 mod stability;
 
+pub use anchors::{anchors, membrane_carriers, Anchor};
 pub use energy::EnergyBalance;
-pub use equations::{anchors, membrane_carriers, Anchor, IncrementEquations};
+pub use equations::IncrementEquations;
 pub use load_step::LoadStep;
 pub use potential::CHAIN_CHANGES;
 pub use setup::{initial_contacts, MaterialModel, StageProgram};
