@@ -41,7 +41,7 @@ pub struct IncrementEquations<'a> {
     /// Whether the chains stay as they are for the rest of the increment: a grain on the
     /// membrane probe's line can flip them from pass to pass.
     pub chains_held: bool,
-    /// The grains the membranes may lie on ([`membrane_carriers`]).
+    /// The grains the membranes may lie on ([`super::membrane_carriers`]).
     pub carriers: &'a [bool],
     /// Springs on the rigid-body motions no wall holds.
     pub anchors: &'a [Anchor],
