@@ -73,25 +73,15 @@ impl Simulation {
                 self.commit(step, &u);
                 Ok(())
             }
-            Err(err) => {
+            Err(mut err) => {
                 self.state.contacts = backup;
                 self.energy = energy;
                 self.restore_friends()?;
                 if depth >= self.config.max_cuts {
-                    return Err(match err {
-                        NumericError::NotConverged {
-                            increment,
-                            residual,
-                            worst_grain,
-                            ..
-                        } => NumericError::NotConverged {
-                            increment,
-                            residual,
-                            worst_grain,
-                            cuts: depth,
-                        },
-                        other => other,
-                    });
+                    if let NumericError::NotConverged { cuts, .. } = &mut err {
+                        *cuts = depth;
+                    }
+                    return Err(err);
                 }
                 report.cuts += 1;
                 self.stats.counters.cuts += 1;
