@@ -9,10 +9,8 @@
 //! milliseconds, where preparing a sprinkled sample of 100,000 grains takes far longer than a
 //! benchmark should. Every neighbour touches, so a crystal has three contacts per grain
 //! against the four of a dense prepared sample. Its factorisation is slower than that of a
-//! prepared sample of the same size (8 ms at 1,000 grains against 2.5 ms per factorisation
-//! in the study of the sand sample); the cause is not established (the couplings of its
-//! horizontal contacts are round-off, 1e-17, rather than zero, and their fill-in may decay
-//! into subnormal numbers).
+//! prepared sample of the same size (2 ms at 1,000 grains against 0.75 ms for the sand sample
+//! in `benches/minimise.rs`): its factor has 1.6 times the entries.
 //!
 //!     cargo bench --bench stages
 //!     cargo bench --bench stages -- "/10000"     # one size
@@ -141,6 +139,8 @@ fn stages(c: &mut Criterion) {
             load_scale: 0.0,
             lagged: true,
             frame_correction: Vec::new(),
+            rotation_scratch: Default::default(),
+            closing_scratch: Default::default(),
             refreeze: false,
             projected: true,
             loads: Vec::new(),

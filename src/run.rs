@@ -3,7 +3,7 @@
 //! state before returning the error.
 
 use crate::output::hdf5_file::read_history;
-use crate::output::{ResultFile, RunHeader};
+use crate::output::{Mechanism, ResultFile, RunHeader};
 use crate::scene::{build_grains, Scene};
 use crate::simulation::Simulation;
 use crate::solver::stats::secs;
@@ -170,6 +170,19 @@ pub fn run_to_end(
                     match unwritten.take() {
                         Some(last) => f.write_increment(&sim.state, &last, &sim.stats)?,
                         None => f.write_summary(&sim.stats)?,
+                    }
+                    // No equilibrium near: the mechanism, as the descent carried it.
+                    if let NumericError::NoEquilibrium { grains, .. } = &err {
+                        let state = &sim.state;
+                        f.write_mechanism(&Mechanism {
+                            increment: state.increment + 1,
+                            description: err.to_string(),
+                            grains: grains.clone(),
+                            position: state.grains.position.clone(),
+                            displacement: sim.descent(),
+                            membrane_pressure: state.membranes.iter().map(|m| m.pressure).collect(),
+                            wall_stress: state.walls.walls.iter().map(|w| w.stress).collect(),
+                        })?;
                     }
                 }
                 let stage = &sim.stages[sim.state.stage];

@@ -158,6 +158,7 @@ fn a_run_resumed_after_a_breakout_repeats_the_uninterrupted_one_and_reports_it()
     };
     assert_eq!(failure.breakouts, [expected]);
     assert_eq!(failure.first_breakout(), Some(3e6));
+    assert_eq!(failure.functional_failure(), Some(3e6));
     let broken_out: Vec<usize> = failure.rows.iter().map(|r| r.broken_out).collect();
     let n = cluster.len();
     assert_eq!(broken_out, [0, 0, 0, n, n, n]);
@@ -170,7 +171,9 @@ fn a_run_resumed_after_a_breakout_repeats_the_uninterrupted_one_and_reports_it()
     assert!(row.ends_with(&format!(",{n}")), "{row}");
     let markdown = failure.markdown();
     for needle in [
-        "| pressure at the first breakout (functional failure) | 3.000e6 | Pa |".to_string(),
+        "| pressure at the first breakout | 3.000e6 | Pa |".to_string(),
+        "| pressure at functional failure (the first breakout, else failure as a whole) | 3.000e6 | Pa |"
+            .to_string(),
         format!(
             "| 1 | 3 | 3.000e6 | {n} | {} | {n} |",
             breakout.bonds_broken

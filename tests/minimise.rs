@@ -155,3 +155,37 @@ fn a_disc_with_nothing_beneath_is_no_equilibrium_near() {
         other => panic!("expected no equilibrium near, got {other:?}"),
     }
 }
+
+/// The run that ends on no equilibrium near writes the mechanism to the result file, as the
+/// descent carried it from the last state in equilibrium, and pictures it: the disc, carried
+/// down, out from under the wall, by more than its radius.
+#[test]
+fn a_run_that_finds_no_equilibrium_near_keeps_and_pictures_the_mechanism() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("falling-disc.toml");
+    let text =
+        common::FALLING_DISC.replace("increments = 1", "increments = 1\nuntil_failure = true");
+    std::fs::write(&scene, text).unwrap();
+    let result = dir.path().join("falling-disc.h5");
+    let out = grainstat(&[
+        "run",
+        scene.to_str().unwrap(),
+        "-o",
+        result.to_str().unwrap(),
+        "--quiet",
+    ]);
+    let said = stderr(&out);
+    assert_eq!(out.status.code(), Some(0), "{said}");
+    assert!(said.contains("no equilibrium near"), "{said}");
+    let mechanism = grainstat::output::read_mechanism(&result).unwrap().unwrap();
+    assert_eq!(mechanism.increment, 1);
+    assert_eq!(mechanism.grains, [0]);
+    assert!(mechanism.description.contains("no equilibrium near"));
+    let [dx, dy] = mechanism.displacement[0];
+    assert!(
+        dy < -1e-4 && dy.abs() > 10.0 * dx.abs(),
+        "carried by [{dx:e}, {dy:e}]"
+    );
+    let plots = grainstat::output::plot::default_dir(&result);
+    assert!(plots.join("mechanism-00000000.png").is_file());
+}

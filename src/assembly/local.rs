@@ -36,28 +36,49 @@ pub struct LocalBlock {
     pub stiffness: [[f64; 6]; 6],
 }
 
-/// The force and tangent of one contact, reduced to the unknowns of `map`.
+/// The force and, when `tangent` says which, the tangent of one contact, reduced to the
+/// unknowns of `map`, into `out` (its stiffness left as it was without a tangent).
 pub fn contact_block(
     k: &Kinematics,
     r: &Response,
     map: &PairMap,
-    tangent: BlockTangent,
+    tangent: Option<BlockTangent>,
     exact_gradient: bool,
-) -> LocalBlock {
+    out: &mut LocalBlock,
+) {
+    let n = k.normal;
+    let bn = [n[0], n[1], 0.0, -n[0], -n[1], 0.0];
+    // The shear force pushes the centres along `B_t`, or, as the exact gradient of the
+    // contact's potential, along `S`: its tangent turns as the centres move.
+    let push = if exact_gradient {
+        turning_push(k)
+    } else {
+        shear_push(k)
+    };
+    let f: [f64; 6] = std::array::from_fn(|a| -(r.normal_force * bn[a] + r.shear_force * push[a]));
+    match tangent {
+        None => reduce(&f, None, map, out),
+        Some(tangent) if map.direct => {
+            out.force = f;
+            local_tangent(k, r, tangent, &mut out.stiffness);
+        }
+        Some(tangent) => {
+            let mut kl = [[0.0; 6]; 6];
+            local_tangent(k, r, tangent, &mut kl);
+            reduce(&f, Some(&kl), map, out);
+        }
+    }
+}
+
+/// The tangent of one contact on its 6 local entries into `kl`.
+fn local_tangent(k: &Kinematics, r: &Response, tangent: BlockTangent, kl: &mut [[f64; 6]; 6]) {
     let symmetric = tangent != BlockTangent::Consistent;
     let projected = tangent == BlockTangent::Projected;
     let (n, t) = (k.normal, k.tangent);
     let bn = [n[0], n[1], 0.0, -n[0], -n[1], 0.0];
-    let bt = [-t[0], -t[1], -k.radius_a, t[0], t[1], -k.radius_b];
-    let scaled = turning_push(k);
-    let s = if symmetric { bt } else { scaled };
-    // The shear force pushes the centres along `B_t`, or, as the exact gradient of the
-    // contact's potential, along `S`: its tangent turns as the centres move.
-    let push = if exact_gradient { scaled } else { bt };
-    let mut f = [0.0; 6];
-    let mut kl = [[0.0; 6]; 6];
+    let bt = shear_push(k);
+    let s = if symmetric { bt } else { turning_push(k) };
     for a in 0..6 {
-        f[a] = -(r.normal_force * bn[a] + r.shear_force * push[a]);
         for b in 0..6 {
             kl[a][b] =
                 r.dfn_dn * bn[a] * bn[b] + r.dfs_dn * bt[a] * bn[b] + r.dfs_ds * bt[a] * s[b];
@@ -87,19 +108,22 @@ pub fn contact_block(
             }
         }
     }
-
-    reduce(&f, Some(&kl), map)
 }
 
 /// What the true push of a contact's shear force on its sides (along `B_t`) has beyond its
 /// push as the exact gradient of the contact's potential (along `S`), reduced to the unknowns
-/// of `map`: the part of the force the turning tangent leaves out of the potential.
-pub fn frame_turn_force(k: &Kinematics, r: &Response, map: &PairMap) -> LocalBlock {
-    let t = k.tangent;
-    let bt = [-t[0], -t[1], -k.radius_a, t[0], t[1], -k.radius_b];
-    let scaled = turning_push(k);
+/// of `map`, into `out`'s force: the part of the force the turning tangent leaves out of the
+/// potential.
+pub fn frame_turn_force(k: &Kinematics, r: &Response, map: &PairMap, out: &mut LocalBlock) {
+    let (bt, scaled) = (shear_push(k), turning_push(k));
     let f: [f64; 6] = std::array::from_fn(|a| -r.shear_force * (bt[a] - scaled[a]));
-    reduce(&f, None, map)
+    reduce(&f, None, map, out)
+}
+
+/// `B_t = d(shear)/dq` with the tangent held.
+fn shear_push(k: &Kinematics) -> [f64; 6] {
+    let t = k.tangent;
+    [-t[0], -t[1], -k.radius_a, t[0], t[1], -k.radius_b]
 }
 
 /// `S = ds/dq`: `B_t` with the centre entries scaled by `1 - (dd . n)/d`, as the tangent turns.
@@ -115,9 +139,17 @@ fn turning_push(k: &Kinematics) -> [f64; 6] {
     ]
 }
 
-/// The local force (and tangent) reduced to the unknowns of `map`.
-fn reduce(f: &[f64; 6], kl: Option<&[[f64; 6]; 6]>, map: &PairMap) -> LocalBlock {
-    let mut out = LocalBlock::default();
+/// The local force (and tangent) reduced to the unknowns of `map`, into `out` (its stiffness
+/// left as it was without a tangent).
+fn reduce(f: &[f64; 6], kl: Option<&[[f64; 6]; 6]>, map: &PairMap, out: &mut LocalBlock) {
+    if map.direct && kl.is_none() {
+        out.force = *f;
+        return;
+    }
+    out.force = [0.0; 6];
+    if kl.is_some() {
+        out.stiffness = [[0.0; 6]; 6];
+    }
     for (a, feeds_a) in map.feeds.iter().enumerate() {
         for &(ra, wa) in feeds_a.iter().flatten() {
             out.force[ra] += wa * f[a];
@@ -129,5 +161,4 @@ fn reduce(f: &[f64; 6], kl: Option<&[[f64; 6]; 6]>, map: &PairMap) -> LocalBlock
             }
         }
     }
-    out
 }

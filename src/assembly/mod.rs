@@ -145,6 +145,17 @@ impl DofMap {
         }
     }
 
+    /// Whether `pair` is part of a wall's glue: a glued grain's contact with its wall or with
+    /// another grain glued to the same wall.
+    pub fn glues(&self, pair: Pair) -> bool {
+        let wall_of = |g: usize| self.glue[g].map(|glue| glue.wall);
+        let a = match pair.a {
+            Side::Wall(w) => Some(w),
+            Side::Grain(a) => wall_of(a),
+        };
+        a.is_some() && a == wall_of(pair.b)
+    }
+
     /// Whether grain `g`'s own unknowns are held at zero: it is glued to a wall, or taken out
     /// of the sample.
     pub fn grain_held(&self, g: usize) -> bool {
@@ -168,6 +179,11 @@ impl DofMap {
     pub fn pair_map(&self, pair: Pair, n: [f64; 2]) -> PairMap {
         let mut m = PairMap::default();
         match pair.a {
+            Side::Grain(a)
+                if self.per_grain == 3 && self.glue[a].is_none() && self.glue[pair.b].is_none() =>
+            {
+                return PairMap::direct(self.grain(a), self.grain(pair.b));
+            }
             Side::Grain(a) => m.push_grain(self, a, 0),
             Side::Wall(w) => {
                 if let Some(dof) = self.wall[w] {
@@ -192,9 +208,22 @@ pub struct PairMap {
     /// For each local entry: (index into `dofs`, weight), up to three (a glued grain's
     /// centre follows its wall and its span walls).
     pub feeds: [[Option<(usize, f64)>; 3]; 6],
+    /// Whether each local entry is the unknown of the same index with weight 1 (two free
+    /// grains with rotations): the block needs no reduction.
+    pub direct: bool,
 }
 
 impl PairMap {
+    /// The map of two free grains with rotations whose first unknowns are `a` and `b`.
+    fn direct(a: usize, b: usize) -> PairMap {
+        PairMap {
+            dofs: [a, a + 1, a + 2, b, b + 1, b + 2],
+            len: 6,
+            feeds: std::array::from_fn(|k| [Some((k, 1.0)), None, None]),
+            direct: true,
+        }
+    }
+
     /// The index of `dof` in `dofs`, added if it is not there yet (both sides of a contact
     /// may feed one wall's unknown).
     fn add(&mut self, dof: usize) -> usize {
@@ -235,7 +264,7 @@ pub struct Pattern {
     /// Column structure for faer.
     pub symbolic: SymbolicSparseColMat<usize>,
     /// For pair `p`, `slots[start[p]..start[p+1]]` holds the value index of each
-    /// (row, column) of its reduced block, row-major.
+    /// (row, column) of its reduced block, column by column as the values lie.
     slots: Vec<usize>,
     start: Vec<usize>,
     /// Value index of each diagonal entry.
@@ -313,7 +342,7 @@ impl Pattern {
             let m = &maps[p];
             let dofs = &m.dofs[..m.len];
             dofs.iter()
-                .flat_map(move |&r| dofs.iter().map(move |&c| (r, c)))
+                .flat_map(move |&c| dofs.iter().map(move |&r| (r, c)))
                 .map(|(r, c)| slot(r, c))
         });
         let diagonal = (0..n).map(|j| slot(j, j)).collect();
@@ -356,14 +385,15 @@ impl Pattern {
         self.symbolic.row_idx().len()
     }
 
-    /// Value indices of pair `p`'s reduced block, row-major.
+    /// Value indices of pair `p`'s reduced block, column by column.
     pub fn pair_slots(&self, p: usize) -> &[usize] {
         &self.slots[self.start[p]..self.start[p + 1]]
     }
 
     /// Add each contact's force to `residual` and its stiffness to `tangent` (this pattern's
     /// values), for contacts `0..pair_index.len()`: contact `i` is friend pair
-    /// `pair_index[i]`, touches the unknowns `map(i)` and has the block `block(i, &map(i))`.
+    /// `pair_index[i]`, touches the unknowns `map(i)` and has the block `block(i, &map(i), _)`
+    /// makes (its stiffness is read only when `tangent` is given).
     /// The unknowns are split into one range per thread, rows of the residual and columns of
     /// the tangent, and each thread goes through all contacts in their order, adding the
     /// blocks of those that touch its range where they fall in it: no two threads write one
@@ -373,7 +403,7 @@ impl Pattern {
         &self,
         pair_index: &[usize],
         map: impl Fn(usize) -> PairMap + Sync,
-        block: impl Fn(usize, &PairMap) -> LocalBlock + Sync,
+        block: impl Fn(usize, &PairMap, &mut LocalBlock) + Sync,
         residual: &mut [f64],
         tangent: Option<&mut [f64]>,
     ) {
@@ -402,23 +432,27 @@ impl Pattern {
         let add =
             |(range, residual, mut values): (Range<usize>, &mut [f64], Option<&mut [f64]>)| {
                 let offset = col_ptr[range.start];
+                let mut local = LocalBlock::default();
                 for (i, &p) in pair_index.iter().enumerate() {
                     let map = map(i);
                     let dofs = &map.dofs[..map.len];
                     if !dofs.iter().any(|d| range.contains(d)) {
                         continue;
                     }
-                    let block = block(i, &map);
+                    block(i, &map, &mut local);
+                    let slots = self.pair_slots(p);
                     for (a, &row) in dofs.iter().enumerate() {
                         if range.contains(&row) {
-                            residual[row - range.start] += block.force[a];
+                            residual[row - range.start] += local.force[a];
                         }
                     }
-                    if let Some(values) = values.as_deref_mut() {
-                        let slots = self.pair_slots(p);
-                        for b in (0..map.len).filter(|&b| range.contains(&dofs[b])) {
-                            for (a, row) in block.stiffness.iter().take(map.len).enumerate() {
-                                values[slots[a * map.len + b] - offset] += row[b];
+                    let Some(values) = values.as_deref_mut() else {
+                        continue;
+                    };
+                    for (b, slots) in slots.chunks_exact(map.len).enumerate() {
+                        if range.contains(&dofs[b]) {
+                            for (row, &slot) in local.stiffness.iter().zip(slots) {
+                                values[slot - offset] += row[b];
                             }
                         }
                     }

@@ -66,6 +66,7 @@ pub struct Kinematics {
 
 /// Kinematics of `pair` in configuration `q`, whose increments are taken from the committed
 /// positions of `grains` and `walls`.
+#[inline]
 pub fn kinematics(pair: Pair, grains: &GrainSet, walls: &WallSet, q: &Configuration) -> Kinematics {
     // Branches are formed as (committed branch) + (increment difference): the rounding
     // error then scales with the grain size, not with the distance from the origin.
@@ -94,71 +95,78 @@ pub fn kinematics(pair: Pair, grains: &GrainSet, walls: &WallSet, q: &Configurat
                 flat: false,
             }
         }
-        Side::Wall(w) => {
-            let wall = &walls.walls[w];
-            let (ob, db) = (grains.origin[b], grains.displacement[b]);
-            if let Some(circle) = &wall.circle {
-                // Like a contact with a disc whose radius is the wall's: the normal turns as the
-                // grain (or a moving plug) moves, the other way round inside a ring.
-                let c = circle.center_at(wall.position);
-                let uw = q.wall_displacement[w];
-                let du = [ub[0] - uw[0], ub[1] - uw[1]];
-                let d = [
-                    (ob[0] - c[0]) + (db[0] + du[0]),
-                    (ob[1] - c[1]) + (db[1] + du[1]),
-                ];
-                let len = d[0].hypot(d[1]);
-                let e = [d[0] / len, d[1] / len];
-                let radius = q.wall_line[w];
-                let (n, distance, overlap) = if circle.grains_inside {
-                    ([-e[0], -e[1]], -len, rb + len - radius)
-                } else {
-                    (e, len, radius + rb - len)
-                };
-                let t = [-n[1], n[0]];
-                return Kinematics {
-                    normal: n,
-                    tangent: t,
-                    distance,
-                    overlap,
-                    shear_increment: du[0] * t[0] + du[1] * t[1] - rb * q.rotation[b],
-                    shear_scale: 1.0 - (du[0] * n[0] + du[1] * n[1]) / distance,
-                    radius_a: 0.0,
-                    radius_b: rb,
-                    flat: false,
-                };
-            }
-            // A line: in this increment it moves by `uw` and then turns by `turn` about its
-            // pivot (moved by `uw`). The grain's centre is taken in the wall's frame, along its
-            // committed normal `nc` and tangent `tc` from the pivot; the turned frame gives
-            // the distance, and the shear is the move along the wall in the wall's frame,
-            // less the grain's rotation relative to the wall's.
-            let (nc, tc) = (wall.current_normal(), wall.current_tangent());
-            let turn = q.wall_turn[w];
-            let (n, t) = (rotate(nc, turn), rotate(tc, turn));
-            let pivot = wall.pivot_at(wall.position);
-            let (start, moved) = wall.line_parts();
-            let along0 =
-                (nc[0] * ob[0] + nc[1] * ob[1] - start) + (nc[0] * db[0] + nc[1] * db[1] - moved);
-            let across0 = tc[0] * (ob[0] - pivot[0] + db[0]) + tc[1] * (ob[1] - pivot[1] + db[1]);
-            let (sin, cos) = turn.sin_cos();
-            let uw = q.wall_displacement[w];
-            let dd = [ub[0] - uw[0], ub[1] - uw[1]];
-            let dist = (cos * along0 + sin * across0) + (n[0] * dd[0] + n[1] * dd[1]);
-            Kinematics {
-                normal: n,
-                tangent: t,
-                distance: dist,
-                overlap: rb - dist,
-                shear_increment: dd[0] * t[0]
-                    + dd[1] * t[1]
-                    + ((cos - 1.0) * across0 - sin * along0)
-                    - rb * (q.rotation[b] - turn),
-                shear_scale: 1.0,
-                radius_a: 0.0,
-                radius_b: rb,
-                flat: true,
-            }
-        }
+        Side::Wall(w) => wall_kinematics(w, b, grains, walls, q),
+    }
+}
+
+/// Kinematics of wall `w` and grain `b` (see [`kinematics`]).
+fn wall_kinematics(
+    w: usize,
+    b: usize,
+    grains: &GrainSet,
+    walls: &WallSet,
+    q: &Configuration,
+) -> Kinematics {
+    let (ub, rb) = (q.displacement[b], grains.radius[b]);
+    let wall = &walls.walls[w];
+    let (ob, db) = (grains.origin[b], grains.displacement[b]);
+    if let Some(circle) = &wall.circle {
+        // Like a contact with a disc whose radius is the wall's: the normal turns as the
+        // grain (or a moving plug) moves, the other way round inside a ring.
+        let c = circle.center_at(wall.position);
+        let uw = q.wall_displacement[w];
+        let du = [ub[0] - uw[0], ub[1] - uw[1]];
+        let d = [
+            (ob[0] - c[0]) + (db[0] + du[0]),
+            (ob[1] - c[1]) + (db[1] + du[1]),
+        ];
+        let len = d[0].hypot(d[1]);
+        let e = [d[0] / len, d[1] / len];
+        let radius = q.wall_line[w];
+        let (n, distance, overlap) = if circle.grains_inside {
+            ([-e[0], -e[1]], -len, rb + len - radius)
+        } else {
+            (e, len, radius + rb - len)
+        };
+        let t = [-n[1], n[0]];
+        return Kinematics {
+            normal: n,
+            tangent: t,
+            distance,
+            overlap,
+            shear_increment: du[0] * t[0] + du[1] * t[1] - rb * q.rotation[b],
+            shear_scale: 1.0 - (du[0] * n[0] + du[1] * n[1]) / distance,
+            radius_a: 0.0,
+            radius_b: rb,
+            flat: false,
+        };
+    }
+    // A line: in this increment it moves by `uw` and then turns by `turn` about its
+    // pivot (moved by `uw`). The grain's centre is taken in the wall's frame, along its
+    // committed normal `nc` and tangent `tc` from the pivot; the turned frame gives
+    // the distance, and the shear is the move along the wall in the wall's frame,
+    // less the grain's rotation relative to the wall's.
+    let (nc, tc) = (wall.current_normal(), wall.current_tangent());
+    let turn = q.wall_turn[w];
+    let (n, t) = (rotate(nc, turn), rotate(tc, turn));
+    let pivot = wall.pivot_at(wall.position);
+    let (start, moved) = wall.line_parts();
+    let along0 = (nc[0] * ob[0] + nc[1] * ob[1] - start) + (nc[0] * db[0] + nc[1] * db[1] - moved);
+    let across0 = tc[0] * (ob[0] - pivot[0] + db[0]) + tc[1] * (ob[1] - pivot[1] + db[1]);
+    let (sin, cos) = turn.sin_cos();
+    let uw = q.wall_displacement[w];
+    let dd = [ub[0] - uw[0], ub[1] - uw[1]];
+    let dist = (cos * along0 + sin * across0) + (n[0] * dd[0] + n[1] * dd[1]);
+    Kinematics {
+        normal: n,
+        tangent: t,
+        distance: dist,
+        overlap: rb - dist,
+        shear_increment: dd[0] * t[0] + dd[1] * t[1] + ((cos - 1.0) * across0 - sin * along0)
+            - rb * (q.rotation[b] - turn),
+        shear_scale: 1.0,
+        radius_a: 0.0,
+        radius_b: rb,
+        flat: true,
     }
 }

@@ -2,6 +2,8 @@
 //! displacement in this increment, by the return map from the last converged state, with
 //! its tangent. Each law is trial -> elastic exit -> return map.
 
+use std::cell::Cell;
+
 /// The fixed properties of one contact, set when it is made.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ContactParams {
@@ -30,6 +32,17 @@ pub struct Response {
     pub dfs_dn: f64,
     /// `dF_s / d shear displacement`.
     pub dfs_ds: f64,
+}
+
+impl Response {
+    /// Whether it has neither force nor stiffness (a contact apart): its block is zero.
+    pub fn is_zero(&self) -> bool {
+        self.normal_force == 0.0
+            && self.shear_force == 0.0
+            && self.dfn_dn == 0.0
+            && self.dfs_dn == 0.0
+            && self.dfs_ds == 0.0
+    }
 }
 
 /// A contact law: the force by the return map from the committed shear force, and its tangent.
@@ -143,8 +156,25 @@ impl ContactLaw for HertzMindlin {
 
     /// The tangent `1.5 M^(2/3) F^(1/3)` of a contact carrying the force scale.
     fn tangent_floor(&self, p: &ContactParams, force_scale: f64) -> f64 {
-        1.5 * p.stiffness.powf(2.0 / 3.0) * force_scale.cbrt()
+        1.5 * p.stiffness.powf(2.0 / 3.0) * cube_root(force_scale)
     }
+}
+
+/// `x.cbrt()`, remembered for the last `x` on each thread: every touching contact of an
+/// evaluation asks for the tangent floor at the same force scale.
+fn cube_root(x: f64) -> f64 {
+    thread_local! {
+        static LAST: Cell<(u64, f64)> = const { Cell::new((u64::MAX, f64::NAN)) };
+    }
+    LAST.with(|last| {
+        let (bits, root) = last.get();
+        if bits == x.to_bits() {
+            return root;
+        }
+        let root = x.cbrt();
+        last.set((x.to_bits(), root));
+        root
+    })
 }
 
 /// Coulomb friction as a potential (method note, step 2): with the shear stiffness `k_s` and

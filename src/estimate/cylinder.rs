@@ -15,7 +15,7 @@ use std::path::Path;
 use super::significant;
 use crate::geometry::{GrainSet, MembraneShape, Side};
 use crate::measure::ring_stresses;
-use crate::output::{read_increments, read_state};
+use crate::output::{read_increments, read_mechanism, read_state};
 use crate::scene::{parse_scene, LawKind};
 use crate::Error;
 
@@ -122,6 +122,11 @@ pub struct CylinderFailure {
     /// The elastic stage against eq. A.113, when an increment after the first is written
     /// before any bond broke.
     pub lame: Option<LameProfile>,
+    /// The grains carried on and the pressure carried when the test ended on no equilibrium
+    /// near after the last written increment: the cylinder failing as a whole (a mechanism
+    /// too large to be taken out as a breakout), at the highest pressure found in
+    /// equilibrium.
+    pub mechanism: Option<(usize, f64)>,
 }
 
 impl CylinderFailure {
@@ -144,6 +149,13 @@ impl CylinderFailure {
     /// Pressure at which the first cluster of grains broke out of the borehole's surface.
     pub fn first_breakout(&self) -> Option<f64> {
         self.breakouts.first().map(|b| b.pressure)
+    }
+
+    /// Pressure at which the borehole lost its function: the first breakout, else the
+    /// failure as a whole that ended the test.
+    pub fn functional_failure(&self) -> Option<f64> {
+        self.first_breakout()
+            .or(self.mechanism.map(|(_, pressure)| pressure))
     }
 
     /// The summary as (name, value, unit) rows.
@@ -178,8 +190,14 @@ impl CylinderFailure {
                 "Pa",
             ),
             (
-                "pressure at the first breakout (functional failure)".into(),
+                "pressure at the first breakout".into(),
                 self.first_breakout().unwrap_or(nan),
+                "Pa",
+            ),
+            (
+                "pressure at functional failure (the first breakout, else failure as a whole)"
+                    .into(),
+                self.functional_failure().unwrap_or(nan),
                 "Pa",
             ),
             (
@@ -188,9 +206,14 @@ impl CylinderFailure {
                 "-",
             ),
             (
-                "last pressure in equilibrium".into(),
+                "pressure at the last increment on file".into(),
                 self.rows.last().map_or(nan, |r| r.pressure),
                 "Pa",
+            ),
+            (
+                "grains carried on in a failure as a whole (no equilibrium near)".into(),
+                self.mechanism.map_or(0.0, |(grains, _)| grains as f64),
+                "-",
             ),
         ];
         if let Some(p) = &self.prediction {
@@ -464,6 +487,10 @@ pub fn cylinder_failure(result: &Path) -> Result<Option<CylinderFailure>, Error>
             let cohesion = s.material.cohesion * density / (16.0 * 2f64.sqrt());
             predict_cylinder(a, b, d, cohesion, (1.0f64 / 3.0).asin())
         });
+    let last = increments.last().copied();
+    let mechanism = read_mechanism(result)?
+        .filter(|m| Some(m.increment) == last.map(|k| k + 1))
+        .and_then(|m| Some((m.grains.len(), *m.membrane_pressure.get(ring)?)));
     Ok(Some(CylinderFailure {
         radii: [a, b],
         region_radius,
@@ -473,6 +500,7 @@ pub fn cylinder_failure(result: &Path) -> Result<Option<CylinderFailure>, Error>
         breakouts,
         prediction,
         lame,
+        mechanism,
     }))
 }
 
@@ -528,9 +556,19 @@ mod tests {
             breakouts: Vec::new(),
             prediction: None,
             lame: None,
+            mechanism: None,
         };
         assert_eq!(failure.first_break(), Some(2e6));
         assert_eq!(failure.local_failure(), Some(4e6));
+        assert_eq!(failure.functional_failure(), None);
+        // Failing as a whole past the last increment, with no breakout before, is its
+        // functional failure, and no breakout.
+        let failed = CylinderFailure {
+            mechanism: Some((150, 4.5e6)),
+            ..failure
+        };
+        assert_eq!(failed.functional_failure(), Some(4.5e6));
+        assert_eq!(failed.first_breakout(), None);
     }
 
     #[test]

@@ -86,6 +86,7 @@ impl GrainSet {
     }
 
     /// Vector from the centre of grain `a` to that of `b`, formed from differences only.
+    #[inline]
     pub fn branch(&self, a: usize, b: usize) -> [f64; 2] {
         let (oa, ob) = (self.origin[a], self.origin[b]);
         let (da, db) = (self.displacement[a], self.displacement[b]);

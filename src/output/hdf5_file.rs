@@ -287,6 +287,15 @@ impl ResultFile {
         })
     }
 
+    /// Write the mechanism of the failure that ends the run as `/failure`, in place of one
+    /// written before.
+    pub fn write_mechanism(&mut self, mechanism: &Mechanism) -> Result<(), Error> {
+        let (path, mechanism) = (self.path.clone(), mechanism.clone());
+        self.change(write_error(&path), move |file| {
+            write_mechanism_group(file, &mechanism)
+        })
+    }
+
     /// Make one change to the file, `write`, and return what it returns: made to the twin,
     /// which is swapped with the file and then given the same change on another thread, to
     /// be done by the next change (see the module's notes). Killed at any moment, the file is
@@ -402,6 +411,10 @@ fn tidy(file: &File, incomplete: &[String], keep: usize, widths: Widths) -> R<()
     let inc = file.group("increments")?;
     for name in incomplete {
         inc.unlink(name)?;
+    }
+    // The run resumed goes on from the state the failure started from.
+    if file.link_exists("failure") {
+        file.unlink("failure")?;
     }
     truncate_history(&file.group("history")?, keep, widths)
 }
@@ -548,6 +561,14 @@ pub fn read_state(path: impl AsRef<Path>, increment: usize) -> Result<(RunHeader
     read().map_err(read_error(path))
 }
 
+/// The mechanism written to `/failure` by the run that ended on no equilibrium near, if one
+/// did.
+pub fn read_mechanism(path: impl AsRef<Path>) -> Result<Option<Mechanism>, Error> {
+    let path = path.as_ref();
+    let file = open_existing(path)?;
+    read_mechanism_group(&file).map_err(read_error(path))
+}
+
 /// The timers and counters last written to `/summary`, `None` when there are none yet (so
 /// a resumed run can go on counting).
 pub fn read_summary(path: impl AsRef<Path>) -> Result<Option<SolverStats>, Error> {
@@ -684,6 +705,77 @@ fn counters_mut(c: &mut Counters) -> [(&'static str, &mut usize); 11] {
 
 // ---------------------------------------------------------------------------------------
 // Summary.
+
+/// The failure that found no equilibrium near: where the descent carried the grains, from
+/// the last state in equilibrium, and which of them it carried on. Not an increment: the
+/// state it shows is not in equilibrium, and the run's last increment is the one before.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Mechanism {
+    /// The increment (1-based) that found no equilibrium near.
+    pub increment: usize,
+    /// What the run said of it.
+    pub description: String,
+    /// The grains the descent carried on, in increasing order.
+    pub grains: Vec<usize>,
+    /// Each grain's centre where the descent started: the highest load found in equilibrium,
+    /// past the last increment on file where halves of the failing one converged (m).
+    pub position: Vec<[f64; 2]>,
+    /// Each grain's displacement in the descent (m).
+    pub displacement: Vec<[f64; 2]>,
+    /// Each membrane's pressure there (Pa).
+    pub membrane_pressure: Vec<f64>,
+    /// Each wall's stress there (Pa).
+    pub wall_stress: Vec<f64>,
+}
+
+fn write_mechanism_group(file: &File, m: &Mechanism) -> R<()> {
+    if file.link_exists("failure") {
+        file.unlink("failure")?;
+    }
+    let g = file.create_group("failure")?;
+    set_attr(&g, "increment", &(m.increment as i64))?;
+    set_str_attr(&g, "description", &m.description)?;
+    let grains: Array1<i64> = m.grains.iter().map(|&i| i as i64).collect();
+    put_plain(&g, "grains", grains.view())?;
+    for (name, rows) in [("position", &m.position), ("displacement", &m.displacement)] {
+        let flat = rows.iter().flatten().copied().collect();
+        put_plain(
+            &g,
+            name,
+            Array2::from_shape_vec((rows.len(), 2), flat)?.view(),
+        )?;
+    }
+    put_plain(
+        &g,
+        "membrane_pressure",
+        ArrayView1::from(&m.membrane_pressure),
+    )?;
+    put_plain(&g, "wall_stress", ArrayView1::from(&m.wall_stress))
+}
+
+fn read_mechanism_group(file: &File) -> R<Option<Mechanism>> {
+    if !file.link_exists("failure") {
+        return Ok(None);
+    }
+    let g = file.group("failure")?;
+    let position = read_rows::<f64, 2>(&g, "position", None)?;
+    let displacement = read_rows::<f64, 2>(&g, "displacement", Some(position.len()))?;
+    let grains = (read_vec::<i64>(&g, "grains", None)?.into_iter())
+        .map(|i| match usize::try_from(i) {
+            Ok(i) if i < displacement.len() => Ok(i),
+            _ => Err(Fail(format!("failure/grains names grain {i}"))),
+        })
+        .collect::<R<Vec<usize>>>()?;
+    Ok(Some(Mechanism {
+        increment: get_count(&g, "increment")?,
+        description: get_str_attr(&g, "description")?,
+        grains,
+        position,
+        displacement,
+        membrane_pressure: read_vec::<f64>(&g, "membrane_pressure", None)?,
+        wall_stress: read_vec::<f64>(&g, "wall_stress", None)?,
+    }))
+}
 
 fn write_summary_group(file: &File, stats: &SolverStats) -> R<()> {
     let g = if file.link_exists("summary") {

@@ -11,6 +11,6 @@ pub mod plot;
 pub mod xdmf;
 
 pub use hdf5_file::{
-    info, read_history, read_increments, read_state, read_summary, History, ResultFile, RunHeader,
-    WallHeader,
+    info, read_history, read_increments, read_mechanism, read_state, read_summary, History,
+    Mechanism, ResultFile, RunHeader, WallHeader,
 };

@@ -1,6 +1,8 @@
 //! The equilibrium equations of one load increment: residual `R = f_ext + f_contact` on every
 //! unknown, and the tangent `K = -dR/du`, assembled into the fixed pattern.
 
+use super::anchors::Anchor;
+use super::potential::{ClosingScratch, RotationScratch};
 use super::LoadStep;
 use crate::assembly::{contact_block, frame_turn_force, BlockTangent, DofMap, PairMap, Pattern};
 use crate::contact::{kinematics, Configuration, Contact, ContactLaw, Kinematics};
@@ -11,149 +13,6 @@ use crate::parallel;
 use crate::solver::stats::{secs, StageTimers};
 use crate::NumericError;
 use std::time::Instant;
-
-/// A spring on one grain along `direction`, holding a rigid-body motion of the sample that no
-/// wall holds: its rotation inside frictionless rings and plugs, and also its translations
-/// when membranes alone bound it. The loads on such a sample balance in those motions, so in
-/// equilibrium the anchors, three at most and statically determinate, carry only what the
-/// residual tolerance leaves: they make the system regular without changing the answer.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Anchor {
-    /// The grain held.
-    pub grain: usize,
-    /// Unit direction it is held in.
-    pub direction: [f64; 2],
-}
-
-/// How many contacts hold each of `n` grains (bonded, or pressed: walls included), and the
-/// grains each is held by.
-fn holding(n: usize, contacts: &[Contact]) -> (Vec<usize>, Vec<Vec<usize>>) {
-    let mut neighbours = vec![Vec::new(); n];
-    let mut held = vec![0usize; n];
-    for c in contacts.iter().filter(|c| c.bonded || c.overlap > 0.0) {
-        held[c.pair.b] += 1;
-        if let Side::Grain(a) = c.pair.a {
-            held[a] += 1;
-            neighbours[a].push(c.pair.b);
-            neighbours[c.pair.b].push(a);
-        }
-    }
-    (held, neighbours)
-}
-
-/// The grains a membrane may lie on: those bonded to at least two others, or pressed by at
-/// least three contacts, which push back on a pressure from any side. A grain held by less
-/// (a rattler left against a ring that was taken away, a grain hanging on one bond, a grain
-/// perched on two neighbours, whose friction it slides on) is pushed around its supports or
-/// into the sample, with no equilibrium until it meets another; the membrane passes over it.
-/// All grains when none is held so (a packing before its first contacts). Fixed from the
-/// committed state at the start of each increment, so the chain does not gain or lose grains
-/// as they touch within it. Grains taken out of the sample never carry.
-pub fn membrane_carriers(grains: &GrainSet, contacts: &[Contact]) -> Vec<bool> {
-    let n = grains.len();
-    let (held, _) = holding(n, contacts);
-    let mut bonds = vec![0usize; n];
-    for c in contacts.iter().filter(|c| c.bonded) {
-        bonds[c.pair.b] += 1;
-        if let Side::Grain(a) = c.pair.a {
-            bonds[a] += 1;
-        }
-    }
-    let carrying: Vec<bool> = (0..n).map(|g| bonds[g] >= 2 || held[g] >= 3).collect();
-    if carrying.iter().any(|&c| c) {
-        carrying
-    } else {
-        grains.taken_out.iter().map(|&out| !out).collect()
-    }
-}
-
-/// Contacts below which a grain counts as loose when anchors are chosen: a grain held by
-/// fewer can roll or swing about its supports (a rattler, a grain on the borehole's surface
-/// that leaned on the plug, a grain standing out of the membrane's chain).
-const ANCHOR_CONTACTS: usize = 4;
-
-/// The anchors a sample needs: none while a straight wall or friction holds it; its rotation
-/// inside frictionless circles alone; its translations too with no walls at all. An anchor
-/// holds the whole sample only through its grain's contacts, so it goes on the grains deepest
-/// in the network of contacts that hold (bonded or pressed): counted in contacts from the
-/// nearest grain with fewer than four of them (`ANCHOR_CONTACTS`). The deepest grain,
-/// nearest the centroid among equals, takes the translations; of the grains at least two
-/// contacts deep, the one farthest from the centroid takes the rotation, so its lever is
-/// long. Chosen anew from the committed state at the start of every increment (a spring acts
-/// on the move within the increment only), so a resumed run chooses the same. Grains taken
-/// out of the sample are not in it: they count in neither the centroid nor the choice.
-pub fn anchors(grains: &GrainSet, walls: &WallSet, contacts: &[Contact]) -> Vec<Anchor> {
-    let straight = walls.walls.iter().any(|w| w.circle.is_none());
-    let friction = walls.walls.iter().any(|w| w.friction != 0.0);
-    let n = grains.len();
-    let in_sample: Vec<usize> = grains.in_sample().collect();
-    if in_sample.len() < 2 || straight || friction {
-        return Vec::new();
-    }
-    // The network of contacts that hold, and each grain's depth in it.
-    let (held, neighbours) = holding(n, contacts);
-    let mut depth = vec![usize::MAX; n];
-    let mut queue = std::collections::VecDeque::new();
-    for g in (0..n).filter(|&g| held[g] < ANCHOR_CONTACTS) {
-        depth[g] = 0;
-        queue.push_back(g);
-    }
-    while let Some(g) = queue.pop_front() {
-        for &h in &neighbours[g] {
-            if depth[h] == usize::MAX {
-                depth[h] = depth[g] + 1;
-                queue.push_back(h);
-            }
-        }
-    }
-    // Grains no loose grain reaches (none is loose): as deep as can be.
-    let depth = |g: usize| depth[g].min(n);
-    let count = in_sample.len() as f64;
-    let centroid = in_sample.iter().fold([0.0; 2], |c, &g| {
-        let p = grains.position[g];
-        [c[0] + p[0] / count, c[1] + p[1] / count]
-    });
-    let offset = |g: usize| {
-        let p = grains.position[g];
-        [p[0] - centroid[0], p[1] - centroid[1]]
-    };
-    let distance = |g: usize| offset(g)[0].hypot(offset(g)[1]);
-    let mut out = Vec::new();
-    if walls.is_empty() {
-        let deepest = (in_sample.iter().copied())
-            .min_by(|&a, &b| {
-                depth(b)
-                    .cmp(&depth(a))
-                    .then(distance(a).total_cmp(&distance(b)))
-                    .then(a.cmp(&b))
-            })
-            .expect("grains");
-        for direction in [[1.0, 0.0], [0.0, 1.0]] {
-            out.push(Anchor {
-                grain: deepest,
-                direction,
-            });
-        }
-    }
-    let deep = in_sample
-        .iter()
-        .map(|&g| depth(g))
-        .max()
-        .unwrap_or(0)
-        .min(2);
-    let far = (in_sample.iter().copied())
-        .filter(|&g| depth(g) >= deep)
-        .max_by(|&a, &b| distance(a).total_cmp(&distance(b)).then(b.cmp(&a)))
-        .expect("grains");
-    let (r, size) = (offset(far), distance(far));
-    if size > 0.0 {
-        out.push(Anchor {
-            grain: far,
-            direction: [-r[1] / size, r[0] / size],
-        });
-    }
-    out
-}
 
 /// Everything one evaluation reads, and the contacts it updates (their trial responses).
 pub struct IncrementEquations<'a> {
@@ -176,7 +35,7 @@ pub struct IncrementEquations<'a> {
     /// Whether the chains stay as they are from now on: a grain on the membrane probe's line
     /// can flip them from refreeze to refreeze (see [`super::CHAIN_CHANGES`]).
     pub chains_held: bool,
-    /// The grains the membranes may lie on ([`membrane_carriers`]).
+    /// The grains the membranes may lie on ([`super::membrane_carriers`]).
     pub carriers: &'a [bool],
     /// Springs on the rigid-body motions no wall holds.
     pub anchors: &'a [Anchor],
@@ -236,6 +95,10 @@ pub struct IncrementEquations<'a> {
     /// What the true residual had beyond the exact gradient at the last refreeze, held as a
     /// load until the next (a lagged, non-conservative part, like a follower load's).
     pub frame_correction: Vec<f64>,
+    /// Buffers the grains' rotation balance keeps between calls.
+    pub rotation_scratch: RotationScratch,
+    /// Buffers the closing fraction of a step keeps between calls.
+    pub closing_scratch: ClosingScratch,
 }
 
 impl IncrementEquations<'_> {
@@ -348,12 +211,7 @@ impl IncrementEquations<'_> {
     /// nothing that changes: a chain of glued grains along a side that the top's move
     /// compressed would otherwise carry load past the sample.
     pub fn is_glue(&self, pair: Pair) -> bool {
-        let wall_of = |g: usize| self.dofs.glue[g].map(|glue| glue.wall);
-        let a = match pair.a {
-            Side::Wall(w) => Some(w),
-            Side::Grain(a) => wall_of(a),
-        };
-        a.is_some() && a == wall_of(pair.b)
+        self.dofs.glues(pair)
     }
 
     /// Kinematics and the return map of contact `idx` in the current configuration.
@@ -495,38 +353,47 @@ impl IncrementEquations<'_> {
         self.load_scale = sum_ext / loaded;
         self.update_contacts()?;
         let start = Instant::now();
-        // Glue contacts carry nothing that changes (see `is_glue`): they count nowhere.
-        let glue: Vec<bool> = self.contacts.iter().map(|c| self.is_glue(c.pair)).collect();
-        let (mut sum_fn, mut energy) = (0.0, 0.0);
-        for (c, _) in self.contacts.iter().zip(&glue).filter(|(_, &g)| !g) {
-            sum_fn += c.response.normal_force.abs();
-            energy += c.energy;
+        // Glue contacts carry nothing that changes (see `is_glue`): they count nowhere but
+        // among the engaged.
+        let (mut sum_fn, mut energy, mut engaged) = (0.0, 0.0, 0usize);
+        for c in self.contacts.iter() {
+            engaged += usize::from(Self::engaged(c));
+            if !self.is_glue(c.pair) {
+                sum_fn += c.response.normal_force.abs();
+                energy += c.energy;
+            }
         }
         self.energy = energy;
         // Each contact's block added in the contacts' order, on the threads' shares of the
-        // unknowns; a glue contact's map is empty.
+        // unknowns; the map of a glue contact, or of one whose block is zero, is empty.
         let (walls, dofs, kin, contacts) = (self.walls, self.dofs, &*self.kin, &*self.contacts);
-        let tangent_kind = self.block_tangent();
+        let tangent_kind = tangent.is_some().then(|| self.block_tangent());
         // In the lagged problem the shear forces push as the exact gradient of the potential;
         // what the true residual has beyond that is taken at each refreeze and held as a load
         // until the next (a lagged non-conservative part, like a follower load's), so that the
         // line search and the residual agree and a refrozen residual is the true one.
         let exact = self.lagged && !self.consistent;
         let map_of = |i: usize| {
-            let map = dofs.pair_map(
-                contacts[i].pair,
-                push_direction(walls, contacts[i].pair, &kin[i]),
-            );
-            if glue[i] {
-                PairMap { len: 0, ..map }
+            let c = &contacts[i];
+            if c.response.is_zero() || dofs.glues(c.pair) {
+                PairMap::default()
             } else {
-                map
+                dofs.pair_map(c.pair, push_direction(walls, c.pair, &kin[i]))
             }
         };
         self.pattern.scatter(
             self.pair_index,
             map_of,
-            |i, map| contact_block(&kin[i], &contacts[i].response, map, tangent_kind, exact),
+            |i, map, out| {
+                contact_block(
+                    &kin[i],
+                    &contacts[i].response,
+                    map,
+                    tangent_kind,
+                    exact,
+                    out,
+                )
+            },
             residual,
             tangent.as_deref_mut(),
         );
@@ -537,7 +404,7 @@ impl IncrementEquations<'_> {
             self.pattern.scatter(
                 self.pair_index,
                 map_of,
-                |i, map| frame_turn_force(&kin[i], &contacts[i].response, map),
+                |i, map, out| frame_turn_force(&kin[i], &contacts[i].response, map, out),
                 correction,
                 None,
             );
@@ -569,7 +436,7 @@ impl IncrementEquations<'_> {
         // friends lists is a contact), or, while contacts carry (almost) nothing, the wall
         // loads shared over the grains touching the loaded walls.
         let counted = if self.lagged {
-            self.contacts.iter().filter(|c| Self::engaged(c)).count()
+            engaged
         } else {
             self.contacts.len()
         };

@@ -98,8 +98,9 @@ impl Simulation {
         part: Part,
         report: &mut IncrementReport,
     ) -> Result<(), NumericError> {
-        let wide = part.depth < BRACKET_CUTS && self.load_change(step, part) > BRACKET;
-        let error = match self.solve_part(step, part.share, wide, report) {
+        let load_change = self.load_change(step, part);
+        let wide = part.depth < BRACKET_CUTS && load_change > BRACKET;
+        let mut error = match self.solve_part(step, part.share, wide, report) {
             Ok(Solved::Committed) => return Ok(()),
             Ok(Solved::BondPastStrength) => return self.follow_halves(step, part, false, report),
             Err(e) => e,
@@ -118,31 +119,14 @@ impl Simulation {
             }
         }
         if !halve {
-            return Err(match error {
-                NumericError::NotConverged {
-                    increment,
-                    residual,
-                    worst_grain,
-                    ..
-                } => NumericError::NotConverged {
-                    increment,
-                    residual,
-                    worst_grain,
-                    cuts: part.depth,
-                },
+            match &mut error {
+                NumericError::NotConverged { cuts, .. } => *cuts = part.depth,
                 NumericError::NoEquilibrium {
-                    increment,
-                    residual,
-                    grains,
-                    ..
-                } => NumericError::NoEquilibrium {
-                    increment,
-                    residual,
-                    grains,
-                    load_change: self.load_change(step, part),
-                },
-                other => other,
-            });
+                    load_change: at, ..
+                } => *at = load_change,
+                _ => {}
+            }
+            return Err(error);
         }
         let stalled = matches!(error, NumericError::NotConverged { .. });
         self.follow_halves(step, part, stalled, report)
@@ -174,6 +158,13 @@ impl Simulation {
             ..first_part
         };
         self.follow_path(&second, rest, report)
+    }
+
+    /// Each grain's displacement in the last descent, from the state it started at: after an
+    /// error of no equilibrium near, how the descent carried the mechanism away from the
+    /// highest load found in equilibrium.
+    pub fn descent(&self) -> Vec<[f64; 2]> {
+        self.q.displacement.clone()
     }
 
     /// Whether `cluster`, which no equilibrium near holds, breaks out of the sample in a stage

@@ -2,6 +2,7 @@
 //! load increment at a time by the global solver (the minimisation of the increment's
 //! potential) or by grain-by-grain relaxation.
 
+mod anchors;
 mod breakout;
 mod energy;
 mod equations;
@@ -9,12 +10,14 @@ mod grain_balance;
 mod increment;
 mod load_step;
 mod potential;
+mod probe;
 mod relaxation;
 mod setup;
 mod stability;
 
+pub use anchors::{anchors, membrane_carriers, Anchor};
 pub use energy::EnergyBalance;
-pub use equations::{anchors, membrane_carriers, Anchor, IncrementEquations};
+pub use equations::IncrementEquations;
 pub use load_step::LoadStep;
 pub use potential::CHAIN_CHANGES;
 pub use setup::{initial_contacts, MaterialModel, StageProgram};
@@ -402,6 +405,8 @@ impl Simulation {
             load_scale: 0.0,
             lagged: self.config.strategy == Strategy::Minimise,
             frame_correction: Vec::new(),
+            rotation_scratch: Default::default(),
+            closing_scratch: Default::default(),
             refreeze: false,
             projected: self.config.strategy == Strategy::Minimise,
             loads: Vec::new(),

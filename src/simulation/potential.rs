@@ -28,6 +28,35 @@ const NEAR_GAP: f64 = 1e-3;
 /// Share of the force scale below which a grain's own balance counts as exact.
 const BALANCED: f64 = 1e-13;
 
+/// One contact's shear force in [`Potential::balance_rotations`] as a function of the shear
+/// made, `clamp(trial - stiffness s, -limit, limit)`, and the grains it turns (`b`, and `a`
+/// unless it is a wall).
+#[derive(Debug, Clone, Copy)]
+struct Shear {
+    trial: f64,
+    stiffness: f64,
+    limit: f64,
+    grains: (usize, Option<usize>),
+}
+
+/// What [`Potential::balance_rotations`] keeps between calls, so that it allocates nothing:
+/// the contacts' shears, each grain's contacts, and those of the grain it turns.
+#[derive(Debug, Default)]
+pub struct RotationScratch {
+    shears: Vec<Shear>,
+    first: Vec<usize>,
+    members: Vec<usize>,
+    turning: Vec<(f64, f64, f64)>,
+}
+
+/// What [`Potential::closing`] keeps between calls, so that it allocates nothing: the
+/// contacts apart with their overlaps at the start of the step, and where the step ends.
+#[derive(Debug, Default)]
+pub struct ClosingScratch {
+    apart: Vec<(usize, f64)>,
+    end: Vec<f64>,
+}
+
 impl IncrementEquations<'_> {
     /// The response of contact `c` in the minimisation (method note, step 2): the normal
     /// force from the overlap, the friction from the lagged potential, and the contact's
@@ -274,26 +303,31 @@ impl Potential for IncrementEquations<'_> {
         // closing overlap leaves at least that much.
         let closing = CLOSING_OVERLAP * self.r_mean;
         self.configure(u);
-        let apart: Vec<(usize, f64)> = (self.contacts.iter().enumerate())
-            .filter(|(_, c)| !c.bonded)
-            .map(|(i, c)| {
-                (
-                    i,
-                    kinematics(c.pair, self.grains, self.walls, self.q).overlap,
-                )
-            })
-            .filter(|&(_, overlap)| overlap < closing)
-            .collect();
-        let end: Vec<f64> = u.iter().zip(du).map(|(a, b)| a + b).collect();
+        let ClosingScratch { mut apart, mut end } = std::mem::take(&mut self.closing_scratch);
+        apart.clear();
+        apart.extend(
+            (self.contacts.iter().enumerate())
+                .filter(|(_, c)| !c.bonded)
+                .map(|(i, c)| {
+                    (
+                        i,
+                        kinematics(c.pair, self.grains, self.walls, self.q).overlap,
+                    )
+                })
+                .filter(|&(_, overlap)| overlap < closing),
+        );
+        end.clear();
+        end.extend(u.iter().zip(du).map(|(a, b)| a + b));
         self.configure(&end);
         let mut fraction = 1.0f64;
-        for (i, overlap0) in apart {
+        for &(i, overlap0) in &apart {
             let pair = self.contacts[i].pair;
             let overlap1 = kinematics(pair, self.grains, self.walls, self.q).overlap;
             if overlap1 > closing {
                 fraction = fraction.min((closing - overlap0) / (overlap1 - overlap0));
             }
         }
+        self.closing_scratch = ClosingScratch { apart, end };
         fraction
     }
 
@@ -308,42 +342,68 @@ impl Potential for IncrementEquations<'_> {
         self.configure(u);
         // Each contact's shear force as a function of the shear made: `clamp(a - k s, -L, L)`
         // with `a` its trial force now, and the grains it turns.
-        struct Shear {
-            trial: f64,
-            stiffness: f64,
-            limit: f64,
-        }
-        let mut shears = Vec::with_capacity(self.contacts.len());
-        let mut of_grain: Vec<Vec<usize>> = vec![Vec::new(); self.grains.len()];
+        let RotationScratch {
+            mut shears,
+            mut first,
+            mut members,
+            mut turning,
+        } = std::mem::take(&mut self.rotation_scratch);
+        shears.clear();
+        first.clear();
+        first.resize(self.grains.len() + 1, 0);
         for c in self.contacts.iter() {
             if self.is_glue(c.pair) || !(c.bonded || c.lag.limit > 0.0) {
                 continue;
             }
             let k = kinematics(c.pair, self.grains, self.walls, self.q);
             let s = k.shear_increment - c.shear_offset;
-            let at = shears.len();
+            let a = match c.pair.a {
+                Side::Grain(a) => Some(a),
+                Side::Wall(_) => None,
+            };
             shears.push(Shear {
                 trial: c.shear_force0 + c.lag.shear_stiffness * s,
                 stiffness: c.lag.shear_stiffness,
                 limit: c.lag.limit,
+                grains: (c.pair.b, a),
             });
-            of_grain[c.pair.b].push(at);
-            if let Side::Grain(a) = c.pair.a {
-                of_grain[a].push(at);
+            for g in std::iter::once(c.pair.b).chain(a) {
+                first[g + 1] += 1;
             }
         }
-        for (g, list) in of_grain.iter().enumerate() {
+        // Each grain's contacts, in the contacts' order: `members[first[g]..first[g + 1]]`
+        // (counted above, each grain's start moved along as its contacts are placed).
+        let n = self.grains.len();
+        for g in 0..n {
+            first[g + 1] += first[g];
+        }
+        members.clear();
+        members.resize(first[n], 0);
+        for (at, c) in shears.iter().enumerate() {
+            for g in std::iter::once(c.grains.0).chain(c.grains.1) {
+                members[first[g]] = at;
+                first[g] += 1;
+            }
+        }
+        first.copy_within(0..n, 1);
+        first[0] = 0;
+        for g in 0..n {
+            let list = &members[first[g]..first[g + 1]];
             if list.is_empty() || self.dofs.glue[g].is_some() {
                 continue;
             }
             let r = self.grains.radius[g];
-            // The moment on the grain turned by `d`: each contact's shear falls by `r d`.
+            // The moment on the grain turned by `d`: each contact's shear falls by `r d`. Its
+            // contacts' trial force, `k r` and limit side by side, as it is evaluated often.
+            turning.clear();
+            turning.extend(list.iter().map(|&i| {
+                let c = &shears[i];
+                (c.trial, c.stiffness * r, c.limit)
+            }));
             let moment = |d: f64| -> f64 {
-                list.iter()
-                    .map(|&i| {
-                        let c = &shears[i];
-                        r * (c.trial - c.stiffness * r * d).clamp(-c.limit, c.limit)
-                    })
+                turning
+                    .iter()
+                    .map(|&(trial, kr, limit)| r * (trial - kr * d).clamp(-limit, limit))
                     .sum()
             };
             let now = moment(0.0);
@@ -393,6 +453,12 @@ impl Potential for IncrementEquations<'_> {
                 shears[i].trial -= shears[i].stiffness * r * d;
             }
         }
+        self.rotation_scratch = RotationScratch {
+            shears,
+            first,
+            members,
+            turning,
+        };
     }
 
     fn balance_grain(

@@ -6,7 +6,7 @@
 
 use super::equations::{IncrementEquations, CHATTER};
 use super::{LoadStep, Simulation, REACH_REBUILD};
-use crate::assembly::contact_block;
+use crate::assembly::{contact_block, LocalBlock};
 use crate::contact::{kinematics, BrokenBond, Contact};
 use crate::geometry::{Pair, Side};
 use crate::solver::relaxation::{
@@ -423,7 +423,9 @@ impl BlockEquations for GrainByGrain<'_> {
             self.eq.kin[idx] = k;
             let c = &self.eq.contacts[idx];
             let map = dofs.pair_map(c.pair, self.eq.push_direction(c.pair, idx));
-            let contact = contact_block(&k, &c.response, &map, self.eq.block_tangent(), false);
+            let mut contact = LocalBlock::default();
+            let tangent = Some(self.eq.block_tangent());
+            contact_block(&k, &c.response, &map, tangent, false, &mut contact);
             // A sliding contact carrying a shear force: its shear displacement along the
             // block's unknowns (the rows of B_t = [-t, -r_a, t, -r_b] that feed them).
             let slip = c.response.sliding && c.response.shear_force != 0.0;

@@ -17,80 +17,119 @@ pub fn multiply(pattern: &SymbolicSparseColMat<usize>, values: &[f64], x: &[f64]
     }
 }
 
-/// Solve `A x = b` by GMRES from `x = 0`, with `precondition` applying `M^-1` in place
-/// (right preconditioning, so the residual it measures is the true `|b - A x|`). Returns the
-/// iterations taken once `|b - A x| <= tolerance |b|`, or `None` after `max_iterations`
-/// without (then `x` is left as it was).
-pub fn gmres(
-    apply: &mut dyn FnMut(&[f64], &mut [f64]),
-    precondition: &mut dyn FnMut(&mut [f64]),
-    b: &[f64],
-    x: &mut [f64],
-    tolerance: f64,
-    max_iterations: usize,
-) -> Option<usize> {
-    let n = b.len();
-    let norm = |v: &[f64]| v.iter().map(|a| a * a).sum::<f64>().sqrt();
-    let beta = norm(b);
-    if beta == 0.0 {
-        x.fill(0.0);
-        return Some(0);
-    }
-    // Arnoldi basis, the Hessenberg matrix by columns, and its Givens rotations.
-    let mut basis: Vec<Vec<f64>> = vec![b.iter().map(|v| v / beta).collect()];
-    let mut hessenberg: Vec<Vec<f64>> = Vec::new();
-    let mut rotations: Vec<(f64, f64)> = Vec::new();
-    let mut g = vec![beta];
-    let mut z = vec![0.0; n];
-    let mut w = vec![0.0; n];
-    for j in 0..max_iterations {
-        z.copy_from_slice(&basis[j]);
-        precondition(&mut z);
-        apply(&z, &mut w);
-        let mut h = vec![0.0; j + 2];
-        for (i, v) in basis.iter().enumerate() {
-            h[i] = w.iter().zip(v).map(|(a, b)| a * b).sum();
-            w.iter_mut().zip(v).for_each(|(a, b)| *a -= h[i] * b);
-        }
-        h[j + 1] = norm(&w);
-        for (i, &(c, s)) in rotations.iter().enumerate() {
-            let (a, b) = (h[i], h[i + 1]);
-            h[i] = c * a + s * b;
-            h[i + 1] = -s * a + c * b;
-        }
-        let r = h[j].hypot(h[j + 1]);
-        if !r.is_finite() || r == 0.0 {
-            return None;
-        }
-        let (c, s) = (h[j] / r, h[j + 1] / r);
-        rotations.push((c, s));
-        h[j] = r;
-        g.push(-s * g[j]);
-        g[j] *= c;
-        let next = h[j + 1];
-        h.truncate(j + 1);
-        hessenberg.push(h);
-        if g[j + 1].abs() <= tolerance * beta {
-            // y from the triangle, then x = M^-1 (V y).
-            let k = j + 1;
-            let mut y = vec![0.0; k];
-            for i in (0..k).rev() {
-                let sum: f64 = (i + 1..k).map(|l| hessenberg[l][i] * y[l]).sum();
-                y[i] = (g[i] - sum) / hessenberg[i][i];
-            }
+/// GMRES's buffers (the Arnoldi basis, the Hessenberg matrix by columns, its Givens
+/// rotations and the work vectors), kept from solve to solve so that a solve allocates
+/// nothing once they have grown to its size.
+#[derive(Debug, Default)]
+pub struct Gmres {
+    basis: Vec<Vec<f64>>,
+    hessenberg: Vec<Vec<f64>>,
+    rotations: Vec<(f64, f64)>,
+    g: Vec<f64>,
+    y: Vec<f64>,
+    z: Vec<f64>,
+    w: Vec<f64>,
+}
+
+impl Gmres {
+    /// Solve `A x = b` by GMRES from `x = 0`, with `precondition` applying `M^-1` in place
+    /// (right preconditioning, so the residual it measures is the true `|b - A x|`). Returns
+    /// the iterations taken once `|b - A x| <= tolerance |b|`, or `None` after
+    /// `max_iterations` without (then `x` is left as it was).
+    pub fn solve(
+        &mut self,
+        apply: &mut dyn FnMut(&[f64], &mut [f64]),
+        precondition: &mut dyn FnMut(&mut [f64]),
+        b: &[f64],
+        x: &mut [f64],
+        tolerance: f64,
+        max_iterations: usize,
+    ) -> Option<usize> {
+        let n = b.len();
+        let norm = |v: &[f64]| v.iter().map(|a| a * a).sum::<f64>().sqrt();
+        let beta = norm(b);
+        if beta == 0.0 {
             x.fill(0.0);
-            for (v, yi) in basis.iter().zip(&y) {
-                x.iter_mut().zip(v).for_each(|(a, b)| *a += yi * b);
+            return Some(0);
+        }
+        let Gmres {
+            basis,
+            hessenberg,
+            rotations,
+            g,
+            y,
+            z,
+            w,
+        } = self;
+        // The basis vectors in use: `basis[..=j]` at step `j`; those beyond are kept for later.
+        let vector = |basis: &mut Vec<Vec<f64>>, j: usize, from: &[f64], scale: f64| {
+            if basis.len() == j {
+                basis.push(Vec::with_capacity(n));
             }
-            precondition(x);
-            return x.iter().all(|v| v.is_finite()).then_some(k);
+            let v = &mut basis[j];
+            v.clear();
+            v.extend(from.iter().map(|a| a / scale));
+        };
+        vector(basis, 0, b, beta);
+        rotations.clear();
+        g.clear();
+        g.push(beta);
+        z.resize(n, 0.0);
+        w.resize(n, 0.0);
+        for j in 0..max_iterations {
+            z.copy_from_slice(&basis[j]);
+            precondition(z);
+            apply(z, w);
+            if hessenberg.len() == j {
+                hessenberg.push(Vec::new());
+            }
+            let h = &mut hessenberg[j];
+            h.clear();
+            h.resize(j + 2, 0.0);
+            for (i, v) in basis[..=j].iter().enumerate() {
+                h[i] = w.iter().zip(v).map(|(a, b)| a * b).sum();
+                w.iter_mut().zip(v).for_each(|(a, b)| *a -= h[i] * b);
+            }
+            h[j + 1] = norm(w);
+            for (i, &(c, s)) in rotations.iter().enumerate() {
+                let (a, b) = (h[i], h[i + 1]);
+                h[i] = c * a + s * b;
+                h[i + 1] = -s * a + c * b;
+            }
+            let r = h[j].hypot(h[j + 1]);
+            if !r.is_finite() || r == 0.0 {
+                return None;
+            }
+            let (c, s) = (h[j] / r, h[j + 1] / r);
+            rotations.push((c, s));
+            h[j] = r;
+            g.push(-s * g[j]);
+            g[j] *= c;
+            let next = h[j + 1];
+            h.truncate(j + 1);
+            if g[j + 1].abs() <= tolerance * beta {
+                // y from the triangle, then x = M^-1 (V y).
+                let k = j + 1;
+                y.clear();
+                y.resize(k, 0.0);
+                for i in (0..k).rev() {
+                    let sum: f64 = (i + 1..k).map(|l| hessenberg[l][i] * y[l]).sum();
+                    y[i] = (g[i] - sum) / hessenberg[i][i];
+                }
+                x.fill(0.0);
+                for (v, yi) in basis.iter().zip(y.iter()) {
+                    x.iter_mut().zip(v).for_each(|(a, b)| *a += yi * b);
+                }
+                precondition(x);
+                return x.iter().all(|v| v.is_finite()).then_some(k);
+            }
+            if next == 0.0 {
+                return None;
+            }
+            vector(basis, j + 1, w, next);
         }
-        if next == 0.0 {
-            return None;
-        }
-        basis.push(w.iter().map(|v| v / next).collect());
+        None
     }
-    None
 }
 
 #[cfg(test)]
@@ -120,15 +159,17 @@ mod tests {
         let b: Vec<f64> = (0..n).map(|i| (i as f64).sin()).collect();
         let diagonal: Vec<f64> = (0..n).map(|i| 4.0 + (i % 3) as f64).collect();
         let mut x = vec![0.0; n];
-        let iterations = gmres(
-            &mut |v, out| multiply(&pattern, &values, v, out),
-            &mut |v| v.iter_mut().zip(&diagonal).for_each(|(a, d)| *a /= d),
-            &b,
-            &mut x,
-            1e-10,
-            100,
-        )
-        .expect("converges");
+        let mut gmres = Gmres::default();
+        let iterations = gmres
+            .solve(
+                &mut |v, out| multiply(&pattern, &values, v, out),
+                &mut |v| v.iter_mut().zip(&diagonal).for_each(|(a, d)| *a /= d),
+                &b,
+                &mut x,
+                1e-10,
+                100,
+            )
+            .expect("converges");
         assert!(iterations > 1 && iterations < 60, "{iterations} iterations");
         let mut ax = vec![0.0; n];
         multiply(&pattern, &values, &x, &mut ax);
@@ -140,7 +181,7 @@ mod tests {
         assert!(error < 1e-9, "residual {error}");
         // An exact preconditioner needs one iteration; too few iterations give None.
         let mut few = vec![0.0; n];
-        let none = gmres(
+        let none = gmres.solve(
             &mut |v, out| multiply(&pattern, &values, v, out),
             &mut |_| {},
             &b,

@@ -234,7 +234,7 @@ pub fn minimise(
     let mut du = vec![0.0; n];
     let mut trial_u = vec![0.0; n];
     let mut loads = vec![0.0; n];
-    let mut regularised = vec![0.0; values.len()];
+    let mut shift = vec![0.0; n];
 
     let mut energy = eq.evaluate(u, &mut residual, Some(values), true)?;
     let (mut rel, mut worst, mut merit) = eq.residual_norm(&residual);
@@ -252,7 +252,7 @@ pub fn minimise(
     let mut frozen = true;
     // Semi-smooth Newton: on once the lag stalls, off again where its step fails.
     let (mut semismooth, mut stalls) = (false, 0usize);
-    let mut consistent = Vec::new();
+    let (mut consistent, mut gmres) = (Vec::new(), krylov::Gmres::default());
     // The grain last moved to its own equilibrium, with the states of its contacts there.
     let mut balanced: (usize, Vec<u8>) = (usize::MAX, Vec::new());
     while !out.at_reach {
@@ -284,10 +284,10 @@ pub fn minimise(
             values,
             diagonal,
             lambda.max(settings.lambda_min),
-            &mut regularised,
+            &mut shift,
         );
-        let a = SparseColMatRef::new(symbolic.as_ref(), &regularised);
-        if let Err(e) = linear.factorize(a, stats) {
+        let a = SparseColMatRef::new(symbolic.as_ref(), values);
+        if let Err(e) = linear.factorize_shifted(a, &shift, stats) {
             if lambda >= 1e6 {
                 return Err(NumericError::Singular { detail: e.0 });
             }
@@ -306,7 +306,7 @@ pub fn minimise(
                 continue;
             }
             du.fill(0.0);
-            let solved = krylov::gmres(
+            let solved = gmres.solve(
                 &mut |v, out| krylov::multiply(symbolic, &consistent, v, out),
                 &mut |v| linear.solve_in_place(v, stats),
                 &residual,
@@ -521,18 +521,17 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
-/// `K + lambda k U` into `out`, `k` the mean diagonal stiffness of the rows that have one
-/// and `U` the units of the rows; a row with less than `WEAK_ROW k u_i` gets that much more,
-/// and a floppy rotation its floor (`FLOPPY_ROTATION`).
-pub(crate) fn regularise(
+/// What `K + lambda k U` adds to each diagonal entry of `K` into `shift`, `k` the mean
+/// diagonal stiffness of the rows that have one and `U` the units of the rows; a row with
+/// less than `WEAK_ROW k u_i` gets that much more, and a floppy rotation its floor
+/// (`FLOPPY_ROTATION`). The linear solver adds it as it takes `K` in.
+pub fn regularise(
     eq: &dyn Potential,
     values: &[f64],
     diagonal: &[usize],
     lambda: f64,
-    out: &mut Vec<f64>,
+    shift: &mut [f64],
 ) {
-    out.clear();
-    out.extend_from_slice(values);
     let (mut sum, mut count) = (0.0, 0usize);
     for (dof, &s) in diagonal.iter().enumerate() {
         if values[s] > 0.0 {
@@ -554,6 +553,6 @@ pub(crate) fn regularise(
             }
             None => WEAK_ROW * unit,
         };
-        out[s] += lambda * unit + (floor - values[s]).max(0.0);
+        shift[dof] = lambda * unit + (floor - values[s]).max(0.0);
     }
 }

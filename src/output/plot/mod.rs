@@ -15,7 +15,9 @@ use plotters::style::RGBColor;
 
 use super::curves::{write_csv, Curve, Curves, LoadAxis};
 use super::h5::input_error;
-use super::hdf5_file::{group_name, read_history, read_increments, read_state, History};
+use super::hdf5_file::{
+    group_name, read_history, read_increments, read_mechanism, read_state, History,
+};
 use super::xdmf::write_xdmf;
 use crate::estimate::{cylinder_failure, estimate_stages};
 use crate::scene::parse_scene;
@@ -154,6 +156,32 @@ pub fn plot(
         );
         let picture = SamplePicture::new(Field::Breakout(k), title, &state);
         written.extend(save(&picture, &dir, &format!("breakout-{}-{tag}", k + 1))?);
+    }
+
+    // The mechanism of the failure that ended the run, after the last increment in
+    // equilibrium: the grains as the descent that found no equilibrium near carried them.
+    if let Some(mechanism) = read_mechanism(result)?.filter(|m| m.increment == increment + 1) {
+        if mechanism.position.len() != state.grains.len() {
+            return Err(input_error(
+                result,
+                format!(
+                    "failure/position has {} rows for {} grains",
+                    mechanism.position.len(),
+                    state.grains.len()
+                ),
+            ));
+        }
+        let mut carried = state.clone();
+        carried.grains.position = mechanism.position;
+        carried.grains.displacement = mechanism.displacement;
+        let title = format!(
+            "{}: no equilibrium near in increment {}, {} grains carried on by the descent",
+            header.scene_name,
+            mechanism.increment,
+            mechanism.grains.len()
+        );
+        let picture = SamplePicture::new(Field::Displacement, title, &carried);
+        written.extend(save(&picture, &dir, &format!("mechanism-{tag}"))?);
     }
 
     let start = if first == increment {
