@@ -1,15 +1,18 @@
 //! The force and tangent of one contact on its 6 local entries `[xa, ya, phia, xb, yb, phib]`
 //! (`a` a wall: its displacement vector instead of `xa, ya`, no `phia`).
 //!
-//! With `B_n = d(overlap)/dq = [n, 0, -n, 0]` and `B_t = [-t, -r_a, t, -r_b]`, the contact
-//! pushes its sides with `f = -(F_n B_n + F_s B_t)`, and the tangent `K = -df/dq` is
+//! With `B_n = d(overlap)/dq = [n, 0, -n, 0]` and `B_t = [-t, -l_a, t, -l_b]` (`l` the arms
+//! from the centres to the middle of the overlap), the contact pushes its sides with
+//! `f = -(F_n B_n + F_s B_t)`, and the tangent `K = -df/dq` is
 //!
 //! `K = F_n' B_n^T B_n + dF_s/dn B_t^T B_n + dF_s/ds B_t^T S + F_n G + F_s H`
 //!
-//! where `S = ds/dq` (the tangent turns as the centres move) and `G`, `H` are the geometric
-//! terms of the rotating normal (`t t^T / d` and `-n t^T / d` on the centres). Only `G` and
-//! the elastic blocks are symmetric; for a symmetric solver `S` is taken as `B_t` and `H` by
-//! its symmetric part.
+//! where `S = ds/dq` (the tangent turns and the arms grow as the centres move) and `G`, `H`
+//! are the geometric terms of the rotating normal (`t t^T / d` and `-n t^T / d` on the
+//! centres). The arms' own terms in `H` (the shear force on a centre as a grain turns) are
+//! left out: against `dF_s/ds B_t^T S` they are of the order of the shear displacement over
+//! the radius. Only `G` and the elastic blocks are symmetric; for a symmetric solver `S` is
+//! taken as `B_t` and `H` by its symmetric part.
 
 use super::PairMap;
 use crate::contact::{Kinematics, Response};
@@ -123,19 +126,21 @@ pub fn frame_turn_force(k: &Kinematics, r: &Response, map: &PairMap, out: &mut L
 /// `B_t = d(shear)/dq` with the tangent held.
 fn shear_push(k: &Kinematics) -> [f64; 6] {
     let t = k.tangent;
-    [-t[0], -t[1], -k.radius_a, t[0], t[1], -k.radius_b]
+    [-t[0], -t[1], -k.lever_a, t[0], t[1], -k.lever_b]
 }
 
-/// `S = ds/dq`: `B_t` with the centre entries scaled by `1 - (dd . n)/d`, as the tangent turns.
+/// `S = ds/dq`: `B_t` with the centre entries scaled by `1 - (dd . n)/d`, as the tangent
+/// turns, and moved along `n` as the arms grow with the centre distance.
 fn turning_push(k: &Kinematics) -> [f64; 6] {
-    let (t, g) = (k.tangent, k.shear_scale);
+    let (n, t, g, h) = (k.normal, k.tangent, k.shear_scale, k.lever_shear);
+    let centre = [g * t[0] + h * n[0], g * t[1] + h * n[1]];
     [
-        -g * t[0],
-        -g * t[1],
-        -k.radius_a,
-        g * t[0],
-        g * t[1],
-        -k.radius_b,
+        -centre[0],
+        -centre[1],
+        -k.lever_a,
+        centre[0],
+        centre[1],
+        -k.lever_b,
     ]
 }
 

@@ -60,6 +60,16 @@ pub struct Kinematics {
     pub radius_a: f64,
     /// Radius of side `b`.
     pub radius_b: f64,
+    /// The arm of the shear force about `a`'s centre: to the middle of the overlap (zero for
+    /// a wall).
+    pub lever_a: f64,
+    /// The arm about `b`'s centre (its radius against a wall). With a grain on side `a` the
+    /// two arms sum to the centre distance, so a pair turned as one body makes no shear
+    /// displacement.
+    pub lever_b: f64,
+    /// `-(phi_a + phi_b) / 2`: the shear a unit of centre distance makes, as both arms grow
+    /// with it by half a unit (zero against a wall).
+    pub lever_shear: f64,
     /// Whether the contact normal is fixed (a straight wall): no geometric terms.
     pub flat: bool,
 }
@@ -81,17 +91,21 @@ pub fn kinematics(pair: Pair, grains: &GrainSet, walls: &WallSet, q: &Configurat
             let n = [d[0] / len, d[1] / len];
             let t = [-n[1], n[0]];
             let dd = [ub[0] - ua[0], ub[1] - ua[1]];
+            let (la, lb) = (0.5 * (len + ra - rb), 0.5 * (len + rb - ra));
             Kinematics {
                 normal: n,
                 tangent: t,
                 distance: len,
                 overlap: ra + rb - len,
                 shear_increment: dd[0] * t[0] + dd[1] * t[1]
-                    - ra * q.rotation[a]
-                    - rb * q.rotation[b],
+                    - la * q.rotation[a]
+                    - lb * q.rotation[b],
                 shear_scale: 1.0 - (dd[0] * n[0] + dd[1] * n[1]) / len,
                 radius_a: ra,
                 radius_b: rb,
+                lever_a: la,
+                lever_b: lb,
+                lever_shear: -0.5 * (q.rotation[a] + q.rotation[b]),
                 flat: false,
             }
         }
@@ -138,6 +152,9 @@ fn wall_kinematics(
             shear_scale: 1.0 - (du[0] * n[0] + du[1] * n[1]) / distance,
             radius_a: 0.0,
             radius_b: rb,
+            lever_a: 0.0,
+            lever_b: rb,
+            lever_shear: 0.0,
             flat: false,
         };
     }
@@ -167,6 +184,9 @@ fn wall_kinematics(
         shear_scale: 1.0,
         radius_a: 0.0,
         radius_b: rb,
+        lever_a: 0.0,
+        lever_b: rb,
+        lever_shear: 0.0,
         flat: true,
     }
 }

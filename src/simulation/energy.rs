@@ -195,7 +195,7 @@ impl Simulation {
                     if glued[a].is_some() {
                         let o = &mut others[a];
                         (o[0], o[1], o[2]) =
-                            (o[0] - f[0], o[1] - f[1], o[2] + c.shear_force0 * k.radius_a);
+                            (o[0] - f[0], o[1] - f[1], o[2] + c.shear_force0 * k.lever_a);
                     }
                     false
                 }
@@ -203,7 +203,7 @@ impl Simulation {
             };
             if glued[b].is_some() && !glue {
                 let o = &mut others[b];
-                (o[0], o[1], o[2]) = (o[0] + f[0], o[1] + f[1], o[2] + c.shear_force0 * k.radius_b);
+                (o[0], o[1], o[2]) = (o[0] + f[0], o[1] + f[1], o[2] + c.shear_force0 * k.lever_b);
             }
             let Side::Wall(w) = c.pair.a else {
                 continue;

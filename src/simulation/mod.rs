@@ -206,11 +206,14 @@ impl Simulation {
         let lambda = lambda.max(self.config.lambda_min);
         let mut residual = vec![0.0; self.dofs.len];
         let mut values = vec![0.0; pattern.nnz()];
-        let mut regularised = Vec::new();
+        let mut shift = vec![0.0; self.dofs.len];
         let mut eq = self.equations(&step);
         Potential::evaluate(&mut eq, &u, &mut residual, Some(&mut values), true)?;
-        minimise::regularise(&eq, &values, &pattern.diagonal, lambda, &mut regularised);
-        Ok((pattern, regularised))
+        minimise::regularise(&eq, &values, &pattern.diagonal, lambda, &mut shift);
+        for (&slot, add) in pattern.diagonal.iter().zip(&shift) {
+            values[slot] += add;
+        }
+        Ok((pattern, values))
     }
 
     /// One load increment, as the pipeline reads: apply the increment, then solve it (the

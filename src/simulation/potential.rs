@@ -37,6 +37,8 @@ struct Shear {
     stiffness: f64,
     limit: f64,
     grains: (usize, Option<usize>),
+    /// The shear force's arms about the grains, in the same order.
+    levers: (f64, f64),
 }
 
 /// What [`Potential::balance_rotations`] keeps between calls, so that it allocates nothing:
@@ -46,7 +48,7 @@ pub struct RotationScratch {
     shears: Vec<Shear>,
     first: Vec<usize>,
     members: Vec<usize>,
-    turning: Vec<(f64, f64, f64)>,
+    turning: Vec<(f64, f64, f64, f64)>,
 }
 
 /// What [`Potential::closing`] keeps between calls, so that it allocates nothing: the
@@ -366,6 +368,7 @@ impl Potential for IncrementEquations<'_> {
                 stiffness: c.lag.shear_stiffness,
                 limit: c.lag.limit,
                 grains: (c.pair.b, a),
+                levers: (k.lever_b, k.lever_a),
             });
             for g in std::iter::once(c.pair.b).chain(a) {
                 first[g + 1] += 1;
@@ -392,18 +395,20 @@ impl Potential for IncrementEquations<'_> {
             if list.is_empty() || self.dofs.glue[g].is_some() {
                 continue;
             }
-            let r = self.grains.radius[g];
-            // The moment on the grain turned by `d`: each contact's shear falls by `r d`. Its
-            // contacts' trial force, `k r` and limit side by side, as it is evaluated often.
+            // The moment on the grain turned by `d`: each contact's shear falls by `l d`, `l`
+            // its arm about the grain. Its contacts' trial force, `k l`, `l` and limit side by
+            // side, as it is evaluated often.
+            let lever = |c: &Shear| if c.grains.0 == g { c.levers.0 } else { c.levers.1 };
             turning.clear();
             turning.extend(list.iter().map(|&i| {
                 let c = &shears[i];
-                (c.trial, c.stiffness * r, c.limit)
+                let l = lever(c);
+                (c.trial, c.stiffness * l, l, c.limit)
             }));
             let moment = |d: f64| -> f64 {
                 turning
                     .iter()
-                    .map(|&(trial, kr, limit)| r * (trial - kr * d).clamp(-limit, limit))
+                    .map(|&(trial, kl, l, limit)| l * (trial - kl * d).clamp(-limit, limit))
                     .sum()
             };
             let now = moment(0.0);
@@ -417,7 +422,7 @@ impl Potential for IncrementEquations<'_> {
                 .map(|&i| {
                     let c = &shears[i];
                     if c.stiffness > 0.0 && c.limit.is_finite() {
-                        (c.trial.abs() + c.limit) / (c.stiffness * r)
+                        (c.trial.abs() + c.limit) / (c.stiffness * lever(c))
                     } else {
                         0.0
                     }
@@ -450,7 +455,8 @@ impl Potential for IncrementEquations<'_> {
             };
             u[self.dofs.grain(g) + 2] += d;
             for &i in list {
-                shears[i].trial -= shears[i].stiffness * r * d;
+                let c = &mut shears[i];
+                c.trial -= c.stiffness * lever(c) * d;
             }
         }
         self.rotation_scratch = RotationScratch {
@@ -489,9 +495,9 @@ impl Potential for IncrementEquations<'_> {
         let on_grain = |k: &Kinematics, side_a: bool| {
             let (n, t) = (k.normal, k.tangent);
             if side_a {
-                ([n[0], n[1], 0.0], [-t[0], -t[1], -k.radius_a])
+                ([n[0], n[1], 0.0], [-t[0], -t[1], -k.lever_a])
             } else {
-                ([-n[0], -n[1], 0.0], [t[0], t[1], -k.radius_b])
+                ([-n[0], -n[1], 0.0], [t[0], t[1], -k.lever_b])
             }
         };
         for (c, evaluated) in self.contacts.iter().zip(self.kin.iter()) {

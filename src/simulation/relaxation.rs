@@ -432,10 +432,10 @@ impl BlockEquations for GrainByGrain<'_> {
             let bt = [
                 -k.tangent[0],
                 -k.tangent[1],
-                -k.radius_a,
+                -k.lever_a,
                 k.tangent[0],
                 k.tangent[1],
-                -k.radius_b,
+                -k.lever_b,
             ];
             let mut shear = [0.0; 3];
             for (entry, feeds) in map.feeds.iter().enumerate() {

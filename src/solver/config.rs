@@ -55,7 +55,7 @@ pub struct SolverConfig {
     #[serde(default = "default_tolerance")]
     pub tolerance: f64,
     /// Newton iterations of the minimisation allowed per pass (a pass ends where a step
-    /// reaches the edge of the friends lists). Default 200.
+    /// reaches the edge of the friends lists). Default 1000: near a limit load the descent is slow before it runs away.
     #[serde(default = "default_max_iterations")]
     pub max_iterations: usize,
     /// Times a step that does not converge may be halved on the way along the increment's
@@ -90,7 +90,7 @@ fn default_tolerance() -> f64 {
     1e-8
 }
 fn default_max_iterations() -> usize {
-    200
+    1000
 }
 fn yes() -> bool {
     true
