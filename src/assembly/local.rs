@@ -135,12 +135,7 @@ fn turning_push(k: &Kinematics) -> [f64; 6] {
     let (n, t, g, h) = (k.normal, k.tangent, k.shear_scale, k.lever_shear);
     let centre = [g * t[0] + h * n[0], g * t[1] + h * n[1]];
     [
-        -centre[0],
-        -centre[1],
-        -k.lever_a,
-        centre[0],
-        centre[1],
-        -k.lever_b,
+        -centre[0], -centre[1], -k.lever_a, centre[0], centre[1], -k.lever_b,
     ]
 }
 

@@ -398,7 +398,13 @@ impl Potential for IncrementEquations<'_> {
             // The moment on the grain turned by `d`: each contact's shear falls by `l d`, `l`
             // its arm about the grain. Its contacts' trial force, `k l`, `l` and limit side by
             // side, as it is evaluated often.
-            let lever = |c: &Shear| if c.grains.0 == g { c.levers.0 } else { c.levers.1 };
+            let lever = |c: &Shear| {
+                if c.grains.0 == g {
+                    c.levers.0
+                } else {
+                    c.levers.1
+                }
+            };
             turning.clear();
             turning.extend(list.iter().map(|&i| {
                 let c = &shears[i];

@@ -178,6 +178,12 @@ const SEMISMOOTH_BELOW: f64 = 1e-2;
 /// where the fixed point on the lag converges linearly.
 const SEMISMOOTH_NEAR: f64 = 1e-3;
 
+/// Share of the residual at which a semi-smooth step failed below which it is tried again:
+/// where the consistent tangent is no better a model than the Hessian (an unstable packing's
+/// softening, not the lag), its steps fail again and again, and the lagged descent alone
+/// converges.
+const RETRY_SHARE: f64 = 0.1;
+
 /// The lag is refrozen once a step has brought the residual of the lagged problem below this
 /// share of the last true residual: the refrozen lag is a fixed-point iteration, and
 /// refreezing after every step, whatever the lagged problem's own progress, can cycle.
@@ -250,8 +256,10 @@ pub fn minimise(
     // lowered after full ones: it costs no factorisation of its own.
     let mut lambda = LAMBDA_START;
     let mut frozen = true;
-    // Semi-smooth Newton: on once the lag stalls, off again where its step fails.
+    // Semi-smooth Newton: on once the lag stalls, off again where its step fails, and tried
+    // again only once the lagged descent has taken the residual a tenth further down.
     let (mut semismooth, mut stalls) = (false, 0usize);
+    let mut semismooth_below = f64::INFINITY;
     let (mut consistent, mut gmres) = (Vec::new(), krylov::Gmres::default());
     // The grain last moved to its own equilibrium, with the states of its contacts there.
     let mut balanced: (usize, Vec<u8>) = (usize::MAX, Vec::new());
@@ -318,6 +326,7 @@ pub fn minimise(
                 // The Hessian is no preconditioner of the consistent tangent here: back to
                 // the lagged minimisation.
                 (semismooth, stalls) = (false, 0);
+                semismooth_below = RETRY_SHARE * rel;
                 (energy, (rel, worst, merit)) = refrozen(eq, u, &mut residual, values)?;
                 true_merit = merit;
                 continue;
@@ -350,6 +359,7 @@ pub fn minimise(
             } else {
                 // Back to the lagged minimisation, regularised harder.
                 semismooth = false;
+                semismooth_below = RETRY_SHARE * rel;
                 lambda = (100.0 * lambda).max(1e-4);
             }
             (energy, (rel, worst, merit)) = refrozen(eq, u, &mut residual, values)?;
@@ -455,7 +465,8 @@ pub fn minimise(
                 true_merit = merit;
             }
         }
-        semismooth = rel < SEMISMOOTH_NEAR || (stalls >= LAG_STALLS && rel < SEMISMOOTH_BELOW);
+        semismooth = (rel < SEMISMOOTH_NEAR || (stalls >= LAG_STALLS && rel < SEMISMOOTH_BELOW))
+            && rel < semismooth_below;
         out.history.push(rel);
         if eq.needs_new_pattern() || (alpha == reach && reach < 1.0) {
             out.at_reach = true;
