@@ -45,7 +45,11 @@ fn agree(scene: &Scene, tolerance: f64) {
         eprintln!("{}: increment {}: {e:?}", scene.name, k + 1);
         // The residual is measured again on the committed positions, whose round-off (some
         // 1e-12 of an overlap) moves it by parts in 1e5 of the tolerance.
-        assert!(e.residual <= 1.001 * tolerance, "increment {}: {e:?}", k + 1);
+        assert!(
+            e.residual <= 1.001 * tolerance,
+            "increment {}: {e:?}",
+            k + 1
+        );
         assert!(
             e.macro_stress < 100.0 * tolerance,
             "increment {}: {e:?}",
@@ -220,7 +224,11 @@ fn relaxation_and_the_minimisation_agree_on_an_annulus_under_a_membrane() {
         eprintln!("annulus: increment {}: {e:?}", k + 1);
         // The residual is measured again on the committed positions, whose round-off (some
         // 1e-12 of an overlap) moves it by parts in 1e5 of the tolerance.
-        assert!(e.residual <= 1.001 * tolerance, "increment {}: {e:?}", k + 1);
+        assert!(
+            e.residual <= 1.001 * tolerance,
+            "increment {}: {e:?}",
+            k + 1
+        );
         assert!(
             e.macro_stress < 10.0 * tolerance,
             "increment {}: {e:?}",
