@@ -4,7 +4,7 @@
 //! lists made anew wherever a step reaches their edge, bonds broken one at a time with the
 //! grains settled anew after each, then the commit.
 
-use super::{friends_around, LoadStep, Simulation, REACH_REBUILD};
+use super::{friends_around, LoadStep, Simulation, CHAIN_CHANGES, REACH_REBUILD};
 use crate::contact::{kinematics, BrokenBond, Configuration, Contact, Lag};
 use crate::solver::minimise::{self, MinimiseSettings, Potential, SystemMatrix};
 use crate::solver::stats::secs;
@@ -385,12 +385,17 @@ impl Simulation {
             lambda_min: self.config.lambda_min,
             max_iterations: self.config.max_iterations,
         };
+        // Chain changes are counted over the passes: a chain that flips between two grains
+        // makes a pattern that couples one and not the other, and would end every pass.
+        let (mut chain_changes, mut worst_grain) = (0, 0);
         for _ in 0..MAX_PASSES {
             let pattern = Arc::clone(&self.pattern);
             let mut values = std::mem::take(&mut self.values);
             let mut stats = self.stats;
             let mut linear = std::mem::take(&mut self.linear);
             let mut eq = self.equations(step);
+            eq.chain_changes = chain_changes;
+            eq.chains_held = chain_changes >= CHAIN_CHANGES;
             let result = minimise::minimise(
                 &mut eq,
                 SystemMatrix {
@@ -404,11 +409,13 @@ impl Simulation {
                 &mut stats,
             );
             let timers = eq.timers;
+            chain_changes = eq.chain_changes;
             self.take_back(stats, timers, values);
             self.linear = linear;
             let outcome = result?;
             report.newton_iterations += outcome.iterations;
             report.residual = outcome.residual;
+            worst_grain = outcome.worst_grain;
             report.topology_passes += 1;
             self.stats.counters.topology_passes += 1;
             self.last_residuals.clone_from(&outcome.history);
@@ -436,7 +443,7 @@ impl Simulation {
         Err(NumericError::NotConverged {
             increment: self.state.increment + 1,
             residual: report.residual,
-            worst_grain: 0,
+            worst_grain,
             cuts: 0,
         })
     }

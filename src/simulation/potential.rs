@@ -15,8 +15,8 @@ use crate::NumericError;
 /// small enough that a contact carrying more than the tolerance has its own.
 const FLOOR_FORCE: f64 = 1e-8;
 
-/// Refreezes of one minimisation that may change a membrane's chain before the chains are
-/// held as they are: a grain on the probe's line has no equilibrium in or out of the chain
+/// Refreezes of one minimisation, over all its passes, that may change a membrane's chain
+/// before the chains are held as they are: a grain on the probe's line has no equilibrium in or out of the chain
 /// (loaded, it is pushed inside and left out; unloaded, it springs back and is taken in).
 /// Held, the chain loads that grain or passes over it as the last change decided.
 pub const CHAIN_CHANGES: usize = 5;
@@ -198,12 +198,12 @@ impl IncrementEquations<'_> {
             *self.chains = chains;
             return;
         }
+        self.chain_changes += 1;
         if !self.pattern.couples(self.dofs, &chains) {
             self.stale_pattern = true;
             return;
         }
         *self.chains = chains;
-        self.chain_changes += 1;
         self.chains_held = self.chain_changes >= CHAIN_CHANGES;
     }
 }
