@@ -325,9 +325,9 @@ const PATH_SPREAD: f64 = 0.02;
 /// Brittle failure against the increment size (issue: hard cases): the beam pushed down in
 /// 100, 200 and 400 steps breaks the same bonds in the same order, each where the coarser
 /// run broke it: the increments in which the two runs found its strength reached overlap,
-/// within the spread of their paths ([`PATH_SPREAD`]); and the peak load differs by what the
-/// coarser steps miss of it. The bonds that break together in the failing increment (the
-/// beam snaps) break together in every run.
+/// within the spread of their paths ([`PATH_SPREAD`]); and the peak load differs by less than
+/// 2% (measured: 1.3316, 1.3297 and 1.3412 N). The bonds that break together in the failing
+/// increment (the beam snaps) break together in every run.
 #[test]
 fn the_crack_sequence_does_not_depend_on_the_increment_size() {
     let dir = tempfile::tempdir().unwrap();
@@ -376,7 +376,7 @@ fn the_crack_sequence_does_not_depend_on_the_increment_size() {
             );
         }
         assert!(
-            (fine_peak - coarse_peak).abs() < 0.03 * fine_peak,
+            (fine_peak - coarse_peak).abs() < 0.02 * fine_peak,
             "peak {coarse_peak} N in {coarse_n} steps, {fine_peak} N in {fine_n}"
         );
     }

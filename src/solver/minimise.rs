@@ -217,7 +217,9 @@ const NEAR: f64 = 1e-4;
 
 /// A semi-smooth step cut where a pair apart closes is taken while it at most multiplies the
 /// residual by this: the closed pair's stiffness is in the next step's tangent (an active
-/// set), so the residual may rise once on the way.
+/// set), so the residual may rise once on the way. Once: another such rise is taken only
+/// after the residual has fallen below where the last one started, or a pair that closes
+/// and opens again step after step cycles with the residual creeping up.
 const CLOSING_RISE: f64 = 2.0;
 
 /// Minimise from `u`; `u` holds the last iterate on return.
@@ -260,6 +262,8 @@ pub fn minimise(
     // again only once the lagged descent has taken the residual a tenth further down.
     let (mut semismooth, mut stalls) = (false, 0usize);
     let mut semismooth_below = f64::INFINITY;
+    // Where the last semi-smooth step that raised the residual at a closing pair started.
+    let mut rise_from = f64::INFINITY;
     let (mut consistent, mut gmres) = (Vec::new(), krylov::Gmres::default());
     // The grain last moved to its own equilibrium, with the states of its contacts there.
     let mut balanced: (usize, Vec<u8>) = (usize::MAX, Vec::new());
@@ -343,9 +347,12 @@ pub fn minimise(
                 }
                 eq.evaluate(&trial_u, &mut trial_residual, None, true)?;
                 let (_, _, t_merit) = eq.residual_norm(&trial_residual);
-                if t_merit <= (1.0 - ARMIJO * alpha) * merit
-                    || (alpha == first && closing < reach && t_merit < CLOSING_RISE * merit)
-                {
+                if t_merit <= (1.0 - ARMIJO * alpha) * merit {
+                    break true;
+                }
+                let closes = alpha == first && closing < reach;
+                if closes && t_merit < CLOSING_RISE * merit && merit < rise_from {
+                    rise_from = merit;
                     break true;
                 }
                 if alpha < 1.0 / 64.0 {
