@@ -184,6 +184,11 @@ const SEMISMOOTH_NEAR: f64 = 1e-3;
 /// converges.
 const RETRY_SHARE: f64 = 0.1;
 
+/// A refreeze that multiplies the residual the lagged problem reached by more than this shows
+/// the lag stalling (a wedged grain's normal force chasing its friction), and semi-smooth steps
+/// may be tried again at once.
+const LAG_JUMP: f64 = 2.0;
+
 /// The lag is refrozen once a step has brought the residual of the lagged problem below this
 /// share of the last true residual: the refrozen lag is a fixed-point iteration, and
 /// refreezing after every step, whatever the lagged problem's own progress, can cycle.
@@ -194,6 +199,12 @@ const INNER: f64 = 0.1;
 /// than the lagged problem's own residual falls (a rearrangement, contacts made and lost, a
 /// bond broken), and a lag held from an earlier iterate only drags the steps back towards it.
 const HOLD_BELOW: f64 = 1e-3;
+
+/// Steps the lag is held for at most: a lagged problem whose limits let a cluster slide (the
+/// normal forces held where the true law would raise them, or a mechanism forming) has no
+/// minimum near, and its descent would crawl on without the true residual ever being looked
+/// at again.
+const HOLD_STEPS: usize = 20;
 
 /// Refreezes in a row that did not halve the true residual before semi-smooth Newton takes
 /// over: the refrozen lag is a fixed-point iteration, and where a sliding contact's friction
@@ -258,6 +269,8 @@ pub fn minimise(
     // lowered after full ones: it costs no factorisation of its own.
     let mut lambda = LAMBDA_START;
     let mut frozen = true;
+    // Accepted steps since the lag was last refrozen.
+    let mut held = 0usize;
     // Semi-smooth Newton: on once the lag stalls, off again where its step fails, and tried
     // again only once the lagged descent has taken the residual a tenth further down.
     let (mut semismooth, mut stalls) = (false, 0usize);
@@ -461,12 +474,18 @@ pub fn minimise(
         // problem is solved well enough (an inexact inner solve of the fixed point on the
         // lag), or as far as round-off lets its potential fall (at a kink of a friction
         // potential the gradient need not vanish); hold the lag until then.
-        frozen = trial_merit <= INNER * true_merit || flat || rel > HOLD_BELOW;
+        held = if frozen { 1 } else { held + 1 };
+        frozen =
+            trial_merit <= INNER * true_merit || flat || rel > HOLD_BELOW || held >= HOLD_STEPS;
         energy = eq.evaluate(u, &mut residual, Some(values), frozen)?;
         (rel, worst, merit) = eq.residual_norm(&residual);
         if frozen {
             stalls = lag_stalls(stalls, merit, true_merit);
             true_merit = merit;
+            if merit > LAG_JUMP * trial_merit {
+                // The lag, not the model, is what stalls: semi-smooth steps are for that.
+                semismooth_below = f64::INFINITY;
+            }
             if balance_worst(eq, u, &residual, rel, worst, settings, &mut balanced) {
                 (energy, (rel, worst, merit)) = refrozen(eq, u, &mut residual, values)?;
                 true_merit = merit;
