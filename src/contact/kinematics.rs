@@ -56,10 +56,6 @@ pub struct Kinematics {
     pub shear_increment: f64,
     /// `1 - (dd . n) / d`: how the rotating tangent scales the shear of a centre displacement.
     pub shear_scale: f64,
-    /// Radius of side `a` (zero for a wall).
-    pub radius_a: f64,
-    /// Radius of side `b`.
-    pub radius_b: f64,
     /// The arm of the shear force about `a`'s centre: to the middle of the overlap (zero for
     /// a wall).
     pub lever_a: f64,
@@ -101,8 +97,6 @@ pub fn kinematics(pair: Pair, grains: &GrainSet, walls: &WallSet, q: &Configurat
                     - la * q.rotation[a]
                     - lb * q.rotation[b],
                 shear_scale: 1.0 - (dd[0] * n[0] + dd[1] * n[1]) / len,
-                radius_a: ra,
-                radius_b: rb,
                 lever_a: la,
                 lever_b: lb,
                 lever_shear: -0.5 * (q.rotation[a] + q.rotation[b]),
@@ -150,8 +144,6 @@ fn wall_kinematics(
             overlap,
             shear_increment: du[0] * t[0] + du[1] * t[1] - rb * q.rotation[b],
             shear_scale: 1.0 - (du[0] * n[0] + du[1] * n[1]) / distance,
-            radius_a: 0.0,
-            radius_b: rb,
             lever_a: 0.0,
             lever_b: rb,
             lever_shear: 0.0,
@@ -182,8 +174,6 @@ fn wall_kinematics(
         shear_increment: dd[0] * t[0] + dd[1] * t[1] + ((cos - 1.0) * across0 - sin * along0)
             - rb * (q.rotation[b] - turn),
         shear_scale: 1.0,
-        radius_a: 0.0,
-        radius_b: rb,
         lever_a: 0.0,
         lever_b: rb,
         lever_shear: 0.0,

@@ -148,14 +148,14 @@ pub fn measure(
         ];
         let arm = match c.pair.a {
             Side::Grain(_) => k.distance,
-            Side::Wall(_) => k.radius_b - k.overlap,
+            Side::Wall(_) => k.lever_b - k.overlap,
         };
         let along = |length: f64| [length * k.normal[0], length * k.normal[1]];
         add_dyad(&mut sum, along(arm), force);
         let b_arm = match c.pair.a {
             Side::Grain(a) => {
-                to_regions(a, along(k.radius_a - 0.5 * k.overlap), force);
-                k.radius_b - 0.5 * k.overlap
+                to_regions(a, along(k.lever_a), force);
+                k.lever_b
             }
             Side::Wall(_) => arm,
         };

@@ -222,7 +222,7 @@ impl Simulation {
                 (f[0] * d[0] + f[1] * d[1]) / len
             } else {
                 // About the pivot, at the contact point on the line.
-                let r = k.radius_b;
+                let r = k.lever_b;
                 let p = [x[0] - r * n[0] - centre[0], x[1] - r * n[1] - centre[1]];
                 p[0] * f[1] - p[1] * f[0]
             };
