@@ -354,7 +354,7 @@ impl Simulation {
     }
 
     /// The lag starts afresh in every increment, as it does in a resumed run.
-    fn fresh_lag(&mut self) {
+    pub(super) fn fresh_lag(&mut self) {
         for c in &mut self.state.contacts.contacts {
             c.lag = Lag::default();
         }

@@ -26,7 +26,7 @@ use crate::assembly::{DofMap, Pattern};
 use crate::contact::{Configuration, ContactLaw, ContactSet, Kinematics};
 use crate::geometry::{chains, Chain, FriendSet, GrainSet, Pair, Side, WallControl, WallSet};
 use crate::measure::{measure, Measurements, MembraneBoundary, Region};
-use crate::solver::minimise::{self, Potential};
+use crate::solver::minimise::Potential;
 use crate::solver::stats::{secs, StageTimers};
 use crate::solver::{LinearSolver, SolverConfig, SolverStats, Strategy};
 use crate::state::{IncrementReport, State};
@@ -187,33 +187,6 @@ impl Simulation {
     /// when the state is written: a run resumed from there then repeats the same arithmetic.
     pub fn refresh_factorisation(&mut self) {
         self.linear.invalidate();
-    }
-
-    /// The matrix the next increment's minimisation factorises first, on the simulation's
-    /// pattern: the projected Hessian of its potential at its starting point, regularised as
-    /// the minimisation regularises it with `lambda` (at least the scene's `lambda_min`).
-    /// For timing the factorisations of a sample's own matrix (`examples/factorisation.rs`);
-    /// the simulation is left ready for that increment.
-    pub fn next_tangent(&mut self, lambda: f64) -> Result<(Arc<Pattern>, Vec<f64>), NumericError> {
-        self.apply_stage_controls()?;
-        self.apply_glue()?;
-        let step = self.next_load_step();
-        self.start_step();
-        self.start_newton()?;
-        self.engage_pairs();
-        let u = self.start_point(&step, 1.0)?;
-        let pattern = Arc::clone(&self.pattern);
-        let lambda = lambda.max(self.config.lambda_min);
-        let mut residual = vec![0.0; self.dofs.len];
-        let mut values = vec![0.0; pattern.nnz()];
-        let mut shift = vec![0.0; self.dofs.len];
-        let mut eq = self.equations(&step);
-        Potential::evaluate(&mut eq, &u, &mut residual, Some(&mut values), true)?;
-        minimise::regularise(&eq, &values, &pattern.diagonal, lambda, &mut shift);
-        for (&slot, add) in pattern.diagonal.iter().zip(&shift) {
-            values[slot] += add;
-        }
-        Ok((pattern, values))
     }
 
     /// One load increment, as the pipeline reads: apply the increment, then solve it (the
