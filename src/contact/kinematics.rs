@@ -83,7 +83,7 @@ pub fn kinematics(pair: Pair, grains: &GrainSet, walls: &WallSet, q: &Configurat
             let (ua, ra) = (q.displacement[a], grains.radius[a]);
             let d0 = grains.branch(a, b);
             let d = [d0[0] + (ub[0] - ua[0]), d0[1] + (ub[1] - ua[1])];
-            let len = d[0].hypot(d[1]);
+            let len = (d[0] * d[0] + d[1] * d[1]).sqrt();
             let n = [d[0] / len, d[1] / len];
             let t = [-n[1], n[0]];
             let dd = [ub[0] - ua[0], ub[1] - ua[1]];
@@ -128,7 +128,7 @@ fn wall_kinematics(
             (ob[0] - c[0]) + (db[0] + du[0]),
             (ob[1] - c[1]) + (db[1] + du[1]),
         ];
-        let len = d[0].hypot(d[1]);
+        let len = (d[0] * d[0] + d[1] * d[1]).sqrt();
         let e = [d[0] / len, d[1] / len];
         let radius = q.wall_line[w];
         let (n, distance, overlap) = if circle.grains_inside {

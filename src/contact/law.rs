@@ -2,8 +2,6 @@
 //! displacement in this increment, by the return map from the last converged state, with
 //! its tangent. Each law is trial -> elastic exit -> return map.
 
-use std::cell::Cell;
-
 /// The fixed properties of one contact, set when it is made.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ContactParams {
@@ -156,25 +154,8 @@ impl ContactLaw for HertzMindlin {
 
     /// The tangent `1.5 M^(2/3) F^(1/3)` of a contact carrying the force scale.
     fn tangent_floor(&self, p: &ContactParams, force_scale: f64) -> f64 {
-        1.5 * p.stiffness.powf(2.0 / 3.0) * cube_root(force_scale)
+        1.5 * (p.stiffness * p.stiffness * force_scale).cbrt()
     }
-}
-
-/// `x.cbrt()`, remembered for the last `x` on each thread: every touching contact of an
-/// evaluation asks for the tangent floor at the same force scale.
-fn cube_root(x: f64) -> f64 {
-    thread_local! {
-        static LAST: Cell<(u64, f64)> = const { Cell::new((u64::MAX, f64::NAN)) };
-    }
-    LAST.with(|last| {
-        let (bits, root) = last.get();
-        if bits == x.to_bits() {
-            return root;
-        }
-        let root = x.cbrt();
-        last.set((x.to_bits(), root));
-        root
-    })
 }
 
 /// Coulomb friction as a potential (method note, step 2): with the shear stiffness `k_s` and

@@ -42,13 +42,15 @@ struct Shear {
 }
 
 /// What [`Potential::balance_rotations`] keeps between calls, so that it allocates nothing:
-/// the contacts' shears, each grain's contacts, and those of the grain it turns.
+/// the contacts' shears, each grain's contacts, those of the grain it turns, and the turns
+/// at which they start or stop sliding.
 #[derive(Debug, Default)]
 pub struct RotationScratch {
     shears: Vec<Shear>,
     first: Vec<usize>,
     members: Vec<usize>,
     turning: Vec<(f64, f64, f64, f64)>,
+    kinks: Vec<f64>,
 }
 
 /// What [`Potential::closing`] keeps between calls, so that it allocates nothing: the
@@ -349,6 +351,7 @@ impl Potential for IncrementEquations<'_> {
             mut first,
             mut members,
             mut turning,
+            mut kinks,
         } = std::mem::take(&mut self.rotation_scratch);
         shears.clear();
         first.clear();
@@ -441,24 +444,28 @@ impl Potential for IncrementEquations<'_> {
             if moment(far).signum() == now.signum() {
                 continue;
             }
-            let (mut lo, mut hi) = (0.0, far);
-            for _ in 0..100 {
-                let mid = 0.5 * (lo + hi);
-                if mid == lo || mid == hi {
+            // The moment is linear between the turns where a contact starts or stops
+            // sliding: walk them from here towards `far` to the one past which its sign
+            // changes, and solve the line before it.
+            kinks.clear();
+            kinks.extend(
+                (turning.iter())
+                    .filter(|&&(_, kl, _, limit)| kl != 0.0 && limit.is_finite())
+                    .flat_map(|&(trial, kl, _, limit)| [(trial - limit) / kl, (trial + limit) / kl])
+                    .filter(|&d| d * far > 0.0 && d.abs() < far.abs()),
+            );
+            kinks.push(far);
+            kinks.sort_by(|a, b| a.abs().total_cmp(&b.abs()));
+            let (mut before, mut m_before) = (0.0, now);
+            let mut d = far;
+            for &kink in kinks.iter() {
+                let m = moment(kink);
+                if m.signum() != now.signum() {
+                    d = before + (kink - before) * m_before / (m_before - m);
                     break;
                 }
-                if moment(mid).signum() == now.signum() {
-                    lo = mid;
-                } else {
-                    hi = mid;
-                }
+                (before, m_before) = (kink, m);
             }
-            let (m_lo, m_hi) = (moment(lo), moment(hi));
-            let d = if m_lo == m_hi {
-                lo
-            } else {
-                lo + (hi - lo) * m_lo / (m_lo - m_hi)
-            };
             u[self.dofs.grain(g) + 2] += d;
             for &i in list {
                 let c = &mut shears[i];
@@ -470,6 +477,7 @@ impl Potential for IncrementEquations<'_> {
             first,
             members,
             turning,
+            kinks,
         };
     }
 

@@ -19,7 +19,7 @@ use faer::perm::PermRef;
 use faer::sparse::linalg::cholesky::supernodal::{
     factorize_supernodal_numeric_ldlt, factorize_supernodal_numeric_ldlt_scratch,
     factorize_supernodal_numeric_llt, factorize_supernodal_numeric_llt_scratch, SupernodalLdltRef,
-    SupernodalLltRef, SymbolicSupernodalCholesky,
+    SymbolicSupernodalCholesky,
 };
 use faer::sparse::linalg::cholesky::{
     factorize_symbolic_cholesky, CholeskySymbolicParams, SymbolicCholesky, SymbolicCholeskyRaw,
@@ -28,7 +28,7 @@ use faer::sparse::linalg::cholesky::{
 use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::utils::{permute_self_adjoint_scratch, permute_self_adjoint_to_unsorted};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
-use faer::{Conj, MatMut, Par, Side};
+use faer::{Par, Side};
 use std::time::Instant;
 
 /// The factorisation could not be made (a non-positive pivot, or a singular matrix).
@@ -62,6 +62,8 @@ struct Cholesky {
     values: Vec<f64>,
     /// A right-hand side in the pivots' order.
     work: Vec<f64>,
+    /// The entries of the right-hand side below a supernode, gathered.
+    below: Vec<f64>,
     /// The values of `L L^T`, and those of the `L D L^T` of the stability indicator
     /// (allocated when first needed).
     llt: Vec<f64>,
@@ -99,6 +101,7 @@ impl Cholesky {
             source,
             diagonal,
             work: vec![0.0; n],
+            below: Vec::new(),
             symbolic,
         })
     }
@@ -121,6 +124,77 @@ fn supernodes(symbolic: &SymbolicCholesky<usize>) -> &SymbolicSupernodalCholesky
     match symbolic.raw() {
         SymbolicCholeskyRaw::Supernodal(s) => s,
         SymbolicCholeskyRaw::Simplicial(_) => unreachable!("analysed in supernodes"),
+    }
+}
+
+/// Solve `L L^T x = b` in place on the supernodal factor `l`, supernode by supernode: a
+/// dense triangular solve of its diagonal block and a matrix-vector product with the rows
+/// below it, scattered to (forward) or gathered from (backward) the rows of its pattern.
+/// With one right-hand side this is bound by reading `L` once each way; faer's own solve
+/// spends more than that on setting up its dense kernels for supernodes of a few columns,
+/// which is what disc packings have.
+fn solve_llt(
+    symbolic: &SymbolicSupernodalCholesky<usize>,
+    l: &[f64],
+    x: &mut [f64],
+    below: &mut Vec<f64>,
+) {
+    let (begin, end) = (symbolic.supernode_begin(), symbolic.supernode_end());
+    let (row_ptr, val_ptr, rows) = (
+        symbolic.col_ptr_for_row_idx(),
+        symbolic.col_ptr_for_val(),
+        symbolic.row_idx(),
+    );
+    // Supernode `s`: its columns `start..start + size`, its column-major block of `height`
+    // rows (the diagonal block, then the rows of `pattern`).
+    let block = |s: usize| {
+        let (start, size) = (begin[s], end[s] - begin[s]);
+        let values = &l[val_ptr[s]..val_ptr[s + 1]];
+        let height = values.len() / size;
+        let pattern = &rows[row_ptr[s]..row_ptr[s] + height - size];
+        (start, size, height, values, pattern)
+    };
+    for s in 0..symbolic.n_supernodes() {
+        let (start, size, height, values, pattern) = block(s);
+        below.clear();
+        below.resize(pattern.len(), 0.0);
+        for j in 0..size {
+            let column = &values[j * height..(j + 1) * height];
+            let xj = x[start + j] / column[j];
+            x[start + j] = xj;
+            for (xi, lij) in x[start + j + 1..start + size]
+                .iter_mut()
+                .zip(&column[j + 1..size])
+            {
+                *xi -= lij * xj;
+            }
+            for (b, lij) in below.iter_mut().zip(&column[size..]) {
+                *b += lij * xj;
+            }
+        }
+        for (&i, b) in pattern.iter().zip(below.iter()) {
+            x[i] -= b;
+        }
+    }
+    for s in (0..symbolic.n_supernodes()).rev() {
+        let (start, size, height, values, pattern) = block(s);
+        below.clear();
+        below.extend(pattern.iter().map(|&i| x[i]));
+        for j in (0..size).rev() {
+            let column = &values[j * height..(j + 1) * height];
+            let mut sum = x[start + j];
+            sum -= column[size..]
+                .iter()
+                .zip(below.iter())
+                .map(|(lij, b)| lij * b)
+                .sum::<f64>();
+            sum -= column[j + 1..size]
+                .iter()
+                .zip(&x[start + j + 1..start + size])
+                .map(|(lij, xi)| lij * xi)
+                .sum::<f64>();
+            x[start + j] = sum / column[j];
+        }
     }
 }
 
@@ -271,20 +345,13 @@ impl LinearSolver {
     /// Solve `A x = b` in place (`rhs` holds `b` on entry and `x` on return).
     pub fn solve_in_place(&mut self, rhs: &mut [f64], stats: &mut SolverStats) {
         let start = Instant::now();
-        let n = rhs.len();
         if let Some(c) = &mut self.cholesky {
             let c = &mut **c;
             let (forward, inverse) = order(&c.symbolic);
             for (w, &dof) in c.work.iter_mut().zip(forward) {
                 *w = rhs[dof];
             }
-            let x = MatMut::from_column_major_slice_mut(&mut c.work, n, 1);
-            SupernodalLltRef::new(supernodes(&c.symbolic), &c.llt).solve_in_place_with_conj(
-                Conj::No,
-                x,
-                self.par,
-                MemStack::new(&mut self.scratch),
-            );
+            solve_llt(supernodes(&c.symbolic), &c.llt, &mut c.work, &mut c.below);
             for (r, &pivot) in rhs.iter_mut().zip(inverse) {
                 *r = c.work[pivot];
             }
@@ -345,6 +412,7 @@ impl LinearSolver {
 mod tests {
     use super::*;
     use faer::sparse::{SparseColMat, Triplet};
+    use faer::{Conj, MatMut};
 
     /// The Dirichlet Laplacian of an `n` x `n` grid shifted by `-shift` (full storage), and
     /// how many of its eigenvalues, `4 - 2 cos(i pi / (n + 1)) - 2 cos(j pi / (n + 1))`, are
@@ -392,7 +460,7 @@ mod tests {
     }
 
     #[test]
-    fn the_cholesky_is_faers_own_in_supernodes_bit_for_bit() {
+    fn the_cholesky_and_its_solve_are_faers_own_in_supernodes() {
         let mut stats = SolverStats::default();
         for n in [6, 250] {
             let (mut matrix, _) = shifted_laplacian(n, 0.0);
@@ -450,11 +518,14 @@ mod tests {
                 Par::Seq,
                 MemStack::new(&mut scratch),
             );
-            let differ = ours
-                .iter()
-                .zip(&theirs)
-                .filter(|(a, b)| a.to_bits() != b.to_bits());
-            assert_eq!(differ.count(), 0, "grid {n} x {n}");
+            // The factors are faer's; the solve sums in its own order.
+            let scale = theirs.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            for (a, b) in ours.iter().zip(&theirs) {
+                assert!(
+                    (a - b).abs() <= 1e-13 * scale,
+                    "grid {n} x {n}: {a} against {b}"
+                );
+            }
         }
     }
 
