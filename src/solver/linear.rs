@@ -1,4 +1,5 @@
-//! The sparse direct solver: faer's supernodal Cholesky of the symmetric Hessian. The symbolic
+//! The sparse direct solver: faer's supernodal Cholesky of the symmetric Hessian, solved with
+//! by a loop of our own over its supernodes (`solve_llt`). The symbolic
 //! factorisation is made once per pattern and reused across iterations, passes and
 //! increments; the numeric storage and the scratch memory are kept too (stack-notes.md: a
 //! fresh allocation per factorisation costs 1.15-1.5x).
@@ -131,8 +132,9 @@ fn supernodes(symbolic: &SymbolicCholesky<usize>) -> &SymbolicSupernodalCholesky
 /// dense triangular solve of its diagonal block and a matrix-vector product with the rows
 /// below it, scattered to (forward) or gathered from (backward) the rows of its pattern.
 /// With one right-hand side this is bound by reading `L` once each way; faer's own solve
-/// spends more than that on setting up its dense kernels for supernodes of a few columns,
-/// which is what disc packings have.
+/// calls its dense kernels once per supernode, which costs more than the arithmetic where
+/// supernodes are small (0.11 against 0.16 ms a solve on the 1,000-grain sand biaxial,
+/// docs/minimise.md, "Per-iteration cost"). Sequential at every size.
 fn solve_llt(
     symbolic: &SymbolicSupernodalCholesky<usize>,
     l: &[f64],
@@ -273,7 +275,7 @@ impl LinearSolver {
             Par::Seq
         };
         let c = Cholesky::analyse(pattern).map_err(|e| NotFactorizable(format!("{e:?}")))?;
-        // The supernodal calls' own scratch: the matrix comes already in the order.
+        // The supernodal factorisations' own scratch: the matrix comes already in the order.
         let s = supernodes(&c.symbolic);
         self.scratch = MemBuffer::new(StackReq::any_of(&[
             factorize_supernodal_numeric_llt_scratch::<usize, f64>(s, self.par, Default::default()),
@@ -282,7 +284,6 @@ impl LinearSolver {
                 self.par,
                 Default::default(),
             ),
-            s.solve_in_place_scratch::<f64>(1, self.par),
         ]));
         self.cholesky = Some(Box::new(c));
         self.factorized = false;
