@@ -118,10 +118,20 @@ impl IncrementEquations<'_> {
                 };
             }
         }
-        let tangent = dfn_dn;
-        if c.lag.unloading && n > 0.0 {
+        if self.consistent {
+            let lag = &mut c.lag;
+            lag.newton_unloading = lag.newton_overlap > 0.0 && n <= 0.5 * lag.newton_overlap;
+            lag.newton_overlap = n;
+        }
+        let unloading = if self.consistent {
+            c.lag.newton_unloading
+        } else {
+            c.lag.unloading
+        };
+        if unloading && n > 0.0 {
             dfn_dn = normal_force / n;
         }
+        let tangent = dfn_dn;
         // A contact that (almost) only touches has (almost) no stiffness: a step from it
         // would drive its grains deep into each other. Its Hessian gets at least the
         // stiffness it has carrying a negligible share of the force scale.
