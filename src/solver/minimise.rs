@@ -280,23 +280,34 @@ pub fn minimise(
     let (mut consistent, mut gmres) = (Vec::new(), krylov::Gmres::default());
     // The grain last moved to its own equilibrium, with the states of its contacts there.
     let mut balanced: (usize, Vec<u8>) = (usize::MAX, Vec::new());
+    // Whether the residual is the law's own: the lag refrozen twice at this iterate.
+    let mut confirmed = false;
     while !out.at_reach {
         if rel <= settings.tolerance {
-            if frozen {
+            if confirmed {
                 out.converged = true;
                 break;
             }
-            // Met with the lag held: test it on the true residual.
+            // Met with the lag held, or on a refreeze that relaxed a limit towards `f N`
+            // (`Lag::refrozen_limit`): refreeze here, and once more if it was refrozen here
+            // already, where the lag then takes `f N` and `k_s` as they are, relaxing nothing,
+            // and test that, the true residual.
+            confirmed = frozen;
             (energy, (rel, worst, merit)) = refrozen(eq, u, &mut residual, values)?;
             true_merit = merit;
             frozen = true;
-            out.history.push(rel);
+            match out.history.last_mut() {
+                // The same iterate's residual, as the law gives it.
+                Some(last) if confirmed => *last = rel,
+                _ => out.history.push(rel),
+            }
             if eq.needs_new_pattern() {
                 out.at_reach = true;
                 break;
             }
             continue;
         }
+        confirmed = false;
         if out.iterations >= settings.max_iterations {
             break;
         }
