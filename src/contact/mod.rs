@@ -102,12 +102,9 @@ pub struct Lag {
     /// unloading towards zero then gets its secant stiffness `F/n`, which reaches zero in one
     /// step, where the tangent `1.5 F/n` only divides the overlap by three.
     pub unloading: bool,
-    /// Overlap where the last consistent tangent was taken (m), and whether it fell by half
-    /// or more since the one before: the same secant rule for the semi-smooth steps, whose
-    /// every evaluation refreezes the lag.
+    /// Overlap where the last consistent tangent was taken (m): the same secant rule for the
+    /// semi-smooth steps, whose every evaluation refreezes the lag.
     pub newton_overlap: f64,
-    /// See `newton_overlap`.
-    pub newton_unloading: bool,
     /// How far the last refreeze found the limit from `f N` (N), and the share of that it
     /// took: the secant of the limit's own fixed point (see [`Lag::refrozen_limit`]).
     pub limit_change: f64,

@@ -118,13 +118,11 @@ impl IncrementEquations<'_> {
                 };
             }
         }
-        if self.consistent {
-            let lag = &mut c.lag;
-            lag.newton_unloading = lag.newton_overlap > 0.0 && n <= 0.5 * lag.newton_overlap;
-            lag.newton_overlap = n;
-        }
         let unloading = if self.consistent {
-            c.lag.newton_unloading
+            let lag = &mut c.lag;
+            let fell = lag.newton_overlap > 0.0 && n <= 0.5 * lag.newton_overlap;
+            lag.newton_overlap = n;
+            fell
         } else {
             c.lag.unloading
         };
