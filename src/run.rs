@@ -8,7 +8,7 @@ use crate::scene::{build_grains, Scene};
 use crate::simulation::Simulation;
 use crate::solver::stats::secs;
 use crate::solver::SolverConfig;
-use crate::state::IncrementReport;
+use crate::state::{deviator, IncrementReport, PeakState};
 use crate::{Error, NumericError};
 use std::path::Path;
 use std::time::Instant;
@@ -160,8 +160,10 @@ pub fn run_to_end(
         Some(f) => PeakForces::written(f.path(), sim.state.stage)?,
         None => PeakForces::default(),
     };
+    // The peak of the increments not written since the last row: the next row carries it.
+    let mut pending: Option<PeakState> = None;
     while !sim.is_finished() {
-        let report = match sim.run_increment() {
+        let mut report = match sim.run_increment() {
             Ok(report) => report,
             Err(err) => {
                 // Keep what was computed: the last converged state, if it is not on file yet
@@ -182,6 +184,7 @@ pub fn run_to_end(
                             displacement: sim.descent(),
                             membrane_pressure: state.membranes.iter().map(|m| m.pressure).collect(),
                             wall_stress: state.walls.walls.iter().map(|w| w.stress).collect(),
+                            peak: sim.peak_within.clone(),
                         })?;
                     }
                 }
@@ -197,6 +200,13 @@ pub fn run_to_end(
                 return Err(err.into());
             }
         };
+        let highest = report.peak.as_ref().map_or_else(
+            || deviator(&report.measurements.macro_stress),
+            PeakState::deviator,
+        );
+        if let Some(before) = pending.take().filter(|p| p.deviator() > highest) {
+            report.peak = Some(before);
+        }
         on_increment(sim, &report);
         // Every stage's end is written too: a test's estimate starts from it.
         let stage_end = sim.state.stage_increment == 0;
@@ -209,6 +219,11 @@ pub fn run_to_end(
             }
             unwritten = None;
         } else {
+            pending = Some(report.peak.clone().unwrap_or_else(|| PeakState {
+                wall_position: sim.state.walls.walls.iter().map(|w| w.position).collect(),
+                wall_stress: report.measurements.wall_stress.clone(),
+                macro_stress: report.measurements.macro_stress,
+            }));
             unwritten = Some(report.clone());
         }
         if let Some(cause) = peaks.drop(sim, &report) {

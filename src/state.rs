@@ -99,6 +99,35 @@ pub struct IncrementReport {
     pub negative_pivots: Option<usize>,
     /// The increment's energy balance.
     pub energy: EnergyBalance,
+    /// The part of the increment found in equilibrium at which the macro stress's deviator
+    /// was highest, where that is not its end: halves of an increment commit as they
+    /// converge, and one that ends just before a bond breaks holds the test's peak, which
+    /// the increment's end, past the break, has left.
+    pub peak: Option<PeakState>,
+}
+
+/// A state within an increment, found in equilibrium on the way to its end, kept for a
+/// test's peak.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct PeakState {
+    /// Each wall's position (m).
+    pub wall_position: Vec<f64>,
+    /// Each wall's stress as the grains put it on the wall (Pa).
+    pub wall_stress: Vec<f64>,
+    /// The macro stress (Pa), indexed as [`Measurements::macro_stress`].
+    pub macro_stress: [[f64; 2]; 2],
+}
+
+impl PeakState {
+    /// The difference of the macro stress's principal stresses (Pa).
+    pub fn deviator(&self) -> f64 {
+        deviator(&self.macro_stress)
+    }
+}
+
+/// The difference of the principal stresses of `stress`'s symmetric part (Pa).
+pub fn deviator(stress: &[[f64; 2]; 2]) -> f64 {
+    (stress[0][0] - stress[1][1]).hypot(stress[0][1] + stress[1][0])
 }
 
 impl State {

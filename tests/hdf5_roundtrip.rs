@@ -11,7 +11,7 @@ use grainstat::output::{
 };
 use grainstat::simulation::EnergyBalance;
 use grainstat::solver::stats::SolverStats;
-use grainstat::state::{Breakout, IncrementReport, State};
+use grainstat::state::{Breakout, IncrementReport, PeakState, State};
 use grainstat::Error;
 use std::path::Path;
 use std::sync::Mutex;
@@ -245,6 +245,12 @@ fn report(s: &State) -> IncrementReport {
             bonds_released: 0.25 * kf,
             taken_out: 0.125 * kf,
         },
+        // A bond broken within increment 2 left its end below its peak.
+        peak: (s.increment == 2).then(|| PeakState {
+            wall_position: vec![0.0, 1e-6, -2e-6, 3e-6],
+            wall_stress: vec![6.0e4, 2.5e4, 6.0e4, f64::NAN],
+            macro_stress: [[1.0e5, 3.0], [3.5, 3.0e5]],
+        }),
     }
 }
 
@@ -359,6 +365,23 @@ fn every_increment_reads_back_exactly() {
     assert_eq!(history.float("energy_bonds_released"), [0.25, 0.5, 0.75]);
     assert_eq!(history.float("energy_taken_out"), [0.125, 0.25, 0.375]);
     assert_eq!(history.float("energy_imbalance"), [0.0625, 0.0625, 0.0625]);
+    // Each increment's peak: its end, but where a part of it was higher.
+    assert_eq!(
+        history.float("macro_stress_yy_peak"),
+        [2.0e5 - 1.0, 3.0e5, 2.0e5 - 3.0]
+    );
+    assert_eq!(history.float("macro_stress_xy_peak"), [3.0, 3.0, 3.0]);
+    let peak_stress = history.wall("wall_stress_peak");
+    assert_eq!(peak_stress[1][..3], [6.0e4, 2.5e4, 6.0e4]);
+    assert_eq!(peak_stress[2][..3], [5.0e4 + 3.0, 2.5e4, 5.0e4 + 3.0]);
+    assert_eq!(
+        history.wall("wall_position_peak")[1],
+        [0.0, 1e-6, -2e-6, 3e-6]
+    );
+    assert_eq!(
+        history.wall("wall_position_peak")[2],
+        history.wall("wall_position")[2]
+    );
     assert_eq!(history.region("region_stress_xx")[1], [3.0e5 + 2.0, 5.0]);
     assert_eq!(history.region("region_stress_xy")[2], [1.0, 6.0]);
     assert_eq!(history.region("region_stress_yx")[2], [2.0, 7.0]);

@@ -322,18 +322,38 @@ fn estimate_stage(
         }
         TestKind::Biaxial => {
             let q = |r: usize| (sa[r] - sl[r]) - (sa[start] - sl[start]);
-            let top = rows
-                .clone()
-                .max_by(|&a, &b| q(a).total_cmp(&q(b)))
+            // The peak from the rows at each increment's peak, and after the last, where the
+            // run ended on no equilibrium near, at the failing increment's: a bond broken
+            // within an increment leaves its end past the peak.
+            let at_peaks = Curves::new(header, &history.at_peaks());
+            let peaks = |key: &str| {
+                let c = at_peaks.stresses.iter().find(|c| c.key == key)?;
+                (c.values.len() >= sa.len()).then_some(c.values.as_slice())
+            };
+            let (pa, pl, pe) = match (peaks("axial_stress_walls"), peaks("lateral_stress_walls")) {
+                (Some(pa), Some(pl)) => (pa, pl, at_peaks.load.values.as_slice()),
+                _ => (sa, sl, ea.as_slice()),
+            };
+            let last = if end + 1 == sa.len() && pa.len() > sa.len() {
+                end + 1
+            } else {
+                end
+            };
+            let q_peak = |r: usize| (pa[r] - pl[r]) - (sa[start] - sl[start]);
+            let top = (start..=last)
+                .max_by(|&a, &b| q_peak(a).total_cmp(&q_peak(b)))
                 .expect("rows");
-            if top == start || q(top) <= 0.0 {
+            if top == start || q_peak(top) <= 0.0 {
                 return Err(NotEstimated(
                     "the deviator does not rise in the stage".into(),
                 ));
             }
             // Half the peak deviator, between two written rows.
-            let half = 0.5 * q(top);
-            let k = (start + 1..=top).find(|&r| q(r) >= half).unwrap_or(top);
+            let half = 0.5 * q_peak(top);
+            let top_row = top.min(end);
+            let k = (start + 1..=top_row)
+                .find(|&r| q(r) >= half)
+                .unwrap_or(top_row);
             let w = if q(k) > q(k - 1) {
                 (half - q(k - 1)) / (q(k) - q(k - 1))
             } else {
@@ -345,12 +365,12 @@ fn estimate_stage(
             let last_tenth = ea[end] - 0.1 * (ea[end] - ea[start]);
             let tail = (start..end).find(|&r| ea[r] >= last_tenth).unwrap_or(start);
             p.poisson_end = -(el[end] - el[tail]) / (ea[end] - ea[tail]);
-            let (s1, s3) = (sa[top], sl[top]);
+            let (s1, s3) = (pa[top], pl[top]);
             p.peak = Some(Peak {
                 axial_stress: s1,
                 lateral_stress: s3,
-                strain: d(ea, top),
-                reached: top < end,
+                strain: pe[top] - ea[start],
+                reached: top < end || q_peak(top) > q(end),
                 friction_angle: ((s1 - s3) / (s1 + s3)).asin().to_degrees(),
             });
             let from = if top < end { top } else { tail };
@@ -540,6 +560,7 @@ mod tests {
             walls: Vec::new(),
             membrane_pressure: Vec::new(),
             regions: Vec::new(),
+            failure_peak: None,
         };
         let p = estimate(&header, &history, &curves).unwrap();
         assert_eq!(p.kind, TestKind::Biaxial);

@@ -494,11 +494,11 @@ pub fn friction_angle([xx, yy, xy]: [f64; 3]) -> f64 {
 fn history_unit(name: &str) -> &'static str {
     match name {
         "volume" => "m^3",
-        "wall_position" | "wall_slide" => "m",
+        "wall_position" | "wall_slide" | "wall_position_peak" => "m",
         "wall_normal_force" | "wall_shear_force" => "N",
         "mean_rotation" | "mean_absolute_rotation" | "wall_turn" | "region_rotation" => "rad",
         n if n.starts_with("macro_stress") || n.starts_with("region_stress") => "Pa",
-        n if n.ends_with("stress") => "Pa",
+        n if n.ends_with("stress") || n.ends_with("stress_peak") => "Pa",
         _ => "-",
     }
 }
@@ -654,6 +654,7 @@ mod tests {
             ],
             membrane_pressure: vec![Vec::new(); 2],
             regions: Vec::new(),
+            failure_peak: None,
         }
     }
 

@@ -60,7 +60,7 @@ use crate::geometry::{
 };
 use crate::measure::Region;
 use crate::solver::stats::{Counters, SolverStats, StageTimers};
-use crate::state::{Breakout, IncrementReport, State};
+use crate::state::{Breakout, IncrementReport, PeakState, State};
 
 /// Value of the root attribute `format`: tells our files from other HDF5 files.
 pub const FORMAT: &str = "grainstat-result";
@@ -726,6 +726,10 @@ pub struct Mechanism {
     pub membrane_pressure: Vec<f64>,
     /// Each wall's stress there (Pa).
     pub wall_stress: Vec<f64>,
+    /// The part of the failing increment found in equilibrium with the highest macro
+    /// deviator: a displacement-controlled test's peak, where its last half step before the
+    /// failure holds it.
+    pub peak: Option<PeakState>,
 }
 
 fn write_mechanism_group(file: &File, m: &Mechanism) -> R<()> {
@@ -750,7 +754,22 @@ fn write_mechanism_group(file: &File, m: &Mechanism) -> R<()> {
         "membrane_pressure",
         ArrayView1::from(&m.membrane_pressure),
     )?;
-    put_plain(&g, "wall_stress", ArrayView1::from(&m.wall_stress))
+    put_plain(&g, "wall_stress", ArrayView1::from(&m.wall_stress))?;
+    if let Some(peak) = &m.peak {
+        let stress: Vec<f64> = peak.macro_stress.iter().flatten().copied().collect();
+        put_plain(
+            &g,
+            "peak_macro_stress",
+            Array2::from_shape_vec((2, 2), stress)?.view(),
+        )?;
+        put_plain(
+            &g,
+            "peak_wall_position",
+            ArrayView1::from(&peak.wall_position),
+        )?;
+        put_plain(&g, "peak_wall_stress", ArrayView1::from(&peak.wall_stress))?;
+    }
+    Ok(())
 }
 
 fn read_mechanism_group(file: &File) -> R<Option<Mechanism>> {
@@ -774,6 +793,21 @@ fn read_mechanism_group(file: &File) -> R<Option<Mechanism>> {
         displacement,
         membrane_pressure: read_vec::<f64>(&g, "membrane_pressure", None)?,
         wall_stress: read_vec::<f64>(&g, "wall_stress", None)?,
+        peak: match g.link_exists("peak_macro_stress") {
+            true => {
+                let [xx, xy, yx, yy] =
+                    read_rows::<f64, 2>(&g, "peak_macro_stress", Some(2))?.concat()[..]
+                else {
+                    return Err(Fail("failure/peak_macro_stress is not 2 x 2".into()));
+                };
+                Some(PeakState {
+                    wall_position: read_vec::<f64>(&g, "peak_wall_position", None)?,
+                    wall_stress: read_vec::<f64>(&g, "peak_wall_stress", None)?,
+                    macro_stress: [[xx, xy], [yx, yy]],
+                })
+            }
+            false => None,
+        },
     }))
 }
 

@@ -8,7 +8,7 @@ use super::{friends_around, LoadStep, Simulation, CHAIN_CHANGES, REACH_REBUILD};
 use crate::contact::{kinematics, BrokenBond, Configuration, Contact, Lag};
 use crate::solver::minimise::{self, MinimiseSettings, Potential, SystemMatrix};
 use crate::solver::stats::secs;
-use crate::state::IncrementReport;
+use crate::state::{IncrementReport, PeakState};
 use crate::NumericError;
 use std::sync::Arc;
 use std::time::Instant;
@@ -234,6 +234,24 @@ impl Simulation {
         stresses.chain(pressures).fold(0.0, f64::max)
     }
 
+    /// Keep the committed state as the increment's peak if its macro deviator is the highest
+    /// found in the increment so far.
+    fn keep_if_peak(&mut self) {
+        let m = self.measure();
+        let here = PeakState {
+            wall_position: self.state.walls.walls.iter().map(|w| w.position).collect(),
+            wall_stress: m.wall_stress,
+            macro_stress: m.macro_stress,
+        };
+        if self
+            .peak_within
+            .as_ref()
+            .is_none_or(|p| here.deviator() > p.deviator())
+        {
+            self.peak_within = Some(here);
+        }
+    }
+
     /// Minimise the potential of `step`, `share` of the increment, break overloaded bonds one
     /// at a time, and commit. On failure the committed state is left as it was.
     fn solve_part(
@@ -271,6 +289,9 @@ impl Simulation {
                 self.index_pairs()?;
                 // The predictor is kept per whole increment: a half step predicts half of it.
                 self.state.last_step = u.iter().map(|v| v / share).collect();
+                if share < 1.0 {
+                    self.keep_if_peak();
+                }
                 Ok(Solved::Committed)
             }
             Err(e) => {

@@ -29,7 +29,7 @@ use crate::measure::{measure, Measurements, MembraneBoundary, Region};
 use crate::solver::minimise::Potential;
 use crate::solver::stats::{secs, StageTimers};
 use crate::solver::{LinearSolver, SolverConfig, SolverStats, Strategy};
-use crate::state::{IncrementReport, State};
+use crate::state::{deviator, IncrementReport, PeakState, State};
 use crate::NumericError;
 use std::sync::Arc;
 use std::time::Instant;
@@ -54,6 +54,9 @@ pub struct Simulation {
     pub last_residuals: Vec<f64>,
     /// Regions whose stress is measured (the scene's `[[regions]]`).
     pub regions: Vec<Region>,
+    /// The part of the increment being solved (or of the last, where it found no equilibrium
+    /// near) found in equilibrium with the highest macro deviator, short of its end.
+    pub peak_within: Option<PeakState>,
     law: Box<dyn ContactLaw>,
     r_mean: f64,
     dofs: DofMap,
@@ -142,6 +145,7 @@ impl Simulation {
             stats: SolverStats::default(),
             last_residuals: Vec::new(),
             regions: Vec::new(),
+            peak_within: None,
             law,
             r_mean,
             q: Configuration::at_rest(&state.grains, &state.walls),
@@ -205,6 +209,7 @@ impl Simulation {
         let step = self.next_load_step();
         let start = self.boundary_forces();
         self.energy = EnergyBalance::default();
+        self.peak_within = None;
         // Solve: the minimisation with bonds broken one at a time; or grain by grain.
         match self.config.strategy {
             Strategy::Minimise => self.minimise_step(&step, &mut report)?,
@@ -227,6 +232,8 @@ impl Simulation {
         self.stats.counters.increments += 1;
         // Measure.
         report.measurements = self.measure();
+        let end = deviator(&report.measurements.macro_stress);
+        report.peak = self.peak_within.take().filter(|p| p.deviator() > end);
         Ok(report)
     }
 

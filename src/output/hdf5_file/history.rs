@@ -16,6 +16,9 @@ pub struct History {
     pub membrane_pressure: Vec<Vec<f64>>,
     /// Per-region columns (dataset name, one row of `R` values per increment).
     pub regions: Vec<(&'static str, Vec<Vec<f64>>)>,
+    /// Where the run ended on no equilibrium near, the part of the failing increment found
+    /// in equilibrium with the highest macro deviator (`/failure`).
+    pub failure_peak: Option<PeakState>,
 }
 
 impl History {
@@ -60,7 +63,82 @@ impl History {
             .find(|(n, _)| *n == name)
             .map_or(&[], |(_, v)| v)
     }
+
+    /// The history at each increment's peak: the macro stress and the walls' positions and
+    /// stresses as they were at the part of the increment with the highest macro deviator
+    /// (where the file has them), the other columns as at its end; after the last row, where
+    /// the run ended on no equilibrium near, a row at the failing increment's peak. A
+    /// test's peak is read from these rows, not from the increments' ends alone.
+    pub fn at_peaks(&self) -> History {
+        let mut h = self.clone();
+        for (end, peak) in PEAK_OF_FLOAT {
+            let peak = self.float(peak).to_vec();
+            if let Some((_, values)) = h.floats.iter_mut().find(|(n, _)| *n == end) {
+                for (v, p) in values.iter_mut().zip(peak) {
+                    if p.is_finite() {
+                        *v = p;
+                    }
+                }
+            }
+        }
+        for (end, peak) in [
+            ("wall_position", WALL_PEAK[0]),
+            ("wall_stress", WALL_PEAK[1]),
+        ] {
+            let peak = self.wall(peak).to_vec();
+            if let Some((_, rows)) = h.walls.iter_mut().find(|(n, _)| *n == end) {
+                for (row, p) in rows.iter_mut().zip(peak) {
+                    if p.iter().all(|v| v.is_finite()) {
+                        *row = p;
+                    }
+                }
+            }
+        }
+        if let (Some(peak), false) = (&self.failure_peak, self.is_empty()) {
+            for (name, values) in &mut h.ints {
+                let last = values[values.len() - 1];
+                let next = matches!(*name, "stage_increment" | "increment");
+                values.push(if next { last + 1 } else { last });
+            }
+            for (name, values) in &mut h.floats {
+                let last = values[values.len() - 1];
+                let s = &peak.macro_stress;
+                values.push(match *name {
+                    "macro_stress_xx" => s[0][0],
+                    "macro_stress_yy" => s[1][1],
+                    "macro_stress_xy" => s[0][1],
+                    "macro_stress_yx" => s[1][0],
+                    _ => last,
+                });
+            }
+            for (name, rows) in &mut h.walls {
+                let last = rows[rows.len() - 1].clone();
+                rows.push(match *name {
+                    "wall_position" => peak.wall_position.clone(),
+                    "wall_stress" => peak.wall_stress.clone(),
+                    _ => last,
+                });
+            }
+            for rows in std::iter::once(&mut h.membrane_pressure)
+                .chain(h.regions.iter_mut().map(|(_, rows)| rows))
+            {
+                if let Some(last) = rows.last().cloned() {
+                    rows.push(last);
+                }
+            }
+        }
+        h.failure_peak = None;
+        h
+    }
 }
+
+/// The macro stress columns and their values at the increment's peak.
+const PEAK_OF_FLOAT: [(&str, &str); 4] = [
+    ("macro_stress_xx", "macro_stress_xx_peak"),
+    ("macro_stress_yy", "macro_stress_yy_peak"),
+    ("macro_stress_xy", "macro_stress_xy_peak"),
+    ("macro_stress_yx", "macro_stress_yx_peak"),
+];
 
 /// The `/history` table, keeping only rows whose increment group is complete: a run killed
 /// while writing may have left a row (or part of one) for an increment that is not whole.
@@ -85,7 +163,7 @@ pub fn read_history(path: impl AsRef<Path>) -> Result<History, Error> {
             .iter()
             .map(|&name| {
                 let v = read_vec::<i64>(&h, name, None)?;
-                Ok((name, keep.iter().map(|&r| v[r]).collect()))
+                Ok((name, keep.iter().map(|&r| v[r]).collect::<Vec<i64>>()))
             })
             .collect::<R<Vec<_>>>()?;
         // Files written before the stability indicator have none.
@@ -132,7 +210,7 @@ pub fn read_history(path: impl AsRef<Path>) -> Result<History, Error> {
             }
         };
         let mut wall_columns = wall_columns;
-        for name in WALL_SHEAR {
+        for name in WALL_SHEAR.iter().chain(&WALL_PEAK) {
             wall_columns.push(table(name, walls)?);
         }
         let region_count = read_regions(&file)?.len();
@@ -141,12 +219,19 @@ pub fn read_history(path: impl AsRef<Path>) -> Result<History, Error> {
             .map(|&name| Ok((name, read_table(&h, name, rows, &keep)?)))
             .collect::<R<Vec<_>>>()?;
         regions.push(table(REGION_ROTATION, region_count)?);
+        // The failure's peak, where the failing increment is the one after the last row.
+        let last = ints.iter().find(|(n, _)| *n == "increment");
+        let last = last.and_then(|(_, v)| v.last().copied());
+        let failure_peak = read_mechanism_group(&file)?
+            .filter(|m| Some(m.increment as i64) == last.map(|k| k + 1))
+            .and_then(|m| m.peak);
         Ok(History {
             ints,
             floats,
             walls: wall_columns,
             membrane_pressure: read_table(&h, MEMBRANE_PRESSURE, rows, &keep)?,
             regions,
+            failure_peak,
         })
     };
     read().map_err(read_error(path))
@@ -172,7 +257,7 @@ const HISTORY_INT: [&str; 13] = [
     "increment",
 ];
 
-const HISTORY_FLOAT: [&str; 15] = [
+const HISTORY_FLOAT: [&str; 19] = [
     "residual",
     "contacts_per_grain",
     "macro_stress_xx",
@@ -190,6 +275,12 @@ const HISTORY_FLOAT: [&str; 15] = [
     "energy_imbalance",
     // NaN in files from before grains were taken out.
     "energy_taken_out",
+    // The macro stress at the increment's peak (`IncrementReport::peak`, else its end); NaN
+    // in files from before it.
+    "macro_stress_xx_peak",
+    "macro_stress_yy_peak",
+    "macro_stress_xy_peak",
+    "macro_stress_yx_peak",
 ];
 
 const HISTORY_WALL: [&str; 6] = [
@@ -211,6 +302,11 @@ pub(super) const NEGATIVE_PIVOTS: &str = "negative_pivots";
 /// Each wall's turn (rad) and shear stress (Pa), a row of `W` values per increment, kept
 /// apart from the walls' first columns so files written before them read.
 const WALL_SHEAR: [&str; 2] = ["wall_turn", "wall_shear_stress"];
+
+/// Each wall's position (m) and stress (Pa, as the grains put it on the wall) at the
+/// increment's peak (`IncrementReport::peak`, else its end), a row of `W` values per
+/// increment.
+const WALL_PEAK: [&str; 2] = ["wall_position_peak", "wall_stress_peak"];
 
 /// Each region's mean grain rotation (rad), a row of `R` values per increment.
 const REGION_ROTATION: &str = "region_rotation";
@@ -246,6 +342,7 @@ impl Widths {
             .chain(REGION_STRESS.iter().map(move |&n| (n, self.regions)))
             .chain(WALL_SHEAR.iter().map(move |&n| (n, self.walls)))
             .chain(std::iter::once((REGION_ROTATION, self.regions)))
+            .chain(WALL_PEAK.iter().map(move |&n| (n, self.walls)))
     }
 }
 
@@ -356,7 +453,13 @@ pub(super) fn append_history(
         state.increment as i64,
     ];
     let e = &report.energy;
-    let floats: [f64; 15] = [
+    let end = PeakState {
+        wall_position: state.walls.walls.iter().map(|w| w.position).collect(),
+        wall_stress: per_wall(&m.wall_stress, walls),
+        macro_stress: m.macro_stress,
+    };
+    let peak = report.peak.as_ref().unwrap_or(&end);
+    let floats: [f64; 19] = [
         report.residual,
         m.contacts_per_grain,
         m.macro_stress[0][0],
@@ -372,6 +475,10 @@ pub(super) fn append_history(
         e.bonds_released,
         e.imbalance(),
         e.taken_out,
+        peak.macro_stress[0][0],
+        peak.macro_stress[1][1],
+        peak.macro_stress[0][1],
+        peak.macro_stress[1][0],
     ];
     let column = |f: fn(&Wall) -> f64| -> Vec<f64> { state.walls.walls.iter().map(f).collect() };
     let wall_rows: [Vec<f64>; 6] = [
@@ -408,6 +515,8 @@ pub(super) fn append_history(
         false => vec![f64::NAN; widths.regions],
     };
     append_table_row(h, REGION_ROTATION, row, &rotation)?;
+    append_table_row(h, WALL_PEAK[0], row, &peak.wall_position)?;
+    append_table_row(h, WALL_PEAK[1], row, &per_wall(&peak.wall_stress, walls))?;
     for (name, value) in HISTORY_FLOAT.iter().zip(floats) {
         append_scalar(h, name, row, value)?;
     }
@@ -433,6 +542,7 @@ pub(super) fn leading_rows(h: &Group, keep: impl Fn(i64) -> bool) -> R<usize> {
         .chain(&REGION_STRESS)
         .chain(&WALL_SHEAR)
         .chain(&[REGION_ROTATION])
+        .chain(&WALL_PEAK)
     {
         if h.link_exists(name) {
             rows = rows.min(dataset(h, name)?.shape().first().copied().unwrap_or(0));
