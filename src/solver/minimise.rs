@@ -292,11 +292,10 @@ pub fn minimise(
             // (`Lag::refrozen_limit`): refreeze here, and once more if it was refrozen here
             // already, where the lag then takes `f N` and `k_s` as they are, relaxing nothing,
             // and test that, the true residual.
-            // The second refreeze needs no Hessian: the first made it at this iterate.
+            // The second refreeze makes the Hessian anew: where it does not confirm, the next
+            // step is taken on the lag it took.
             confirmed = frozen;
-            let tangent = (!confirmed).then_some(&mut **values);
-            energy = eq.evaluate(u, &mut residual, tangent, true)?;
-            (rel, worst, merit) = eq.residual_norm(&residual);
+            (energy, (rel, worst, merit)) = refrozen(eq, u, &mut residual, values)?;
             true_merit = merit;
             frozen = true;
             match out.history.last_mut() {
