@@ -219,11 +219,12 @@ pub fn run_to_end(
             }
             unwritten = None;
         } else {
-            pending = Some(report.peak.clone().unwrap_or_else(|| PeakState {
-                wall_position: sim.state.walls.walls.iter().map(|w| w.position).collect(),
-                wall_stress: report.measurements.wall_stress.clone(),
-                macro_stress: report.measurements.macro_stress,
-            }));
+            pending = Some(
+                report
+                    .peak
+                    .clone()
+                    .unwrap_or_else(|| PeakState::of(&sim.state.walls, &report.measurements)),
+            );
             unwritten = Some(report.clone());
         }
         if let Some(cause) = peaks.drop(sim, &report) {

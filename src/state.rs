@@ -119,6 +119,15 @@ pub struct PeakState {
 }
 
 impl PeakState {
+    /// The walls as they are, with the measurements `m` taken there.
+    pub fn of(walls: &WallSet, m: &Measurements) -> PeakState {
+        PeakState {
+            wall_position: walls.walls.iter().map(|w| w.position).collect(),
+            wall_stress: m.wall_stress.clone(),
+            macro_stress: m.macro_stress,
+        }
+    }
+
     /// The difference of the macro stress's principal stresses (Pa).
     pub fn deviator(&self) -> f64 {
         deviator(&self.macro_stress)

@@ -237,12 +237,7 @@ impl Simulation {
     /// Keep the committed state as the increment's peak if its macro deviator is the highest
     /// found in the increment so far.
     fn keep_if_peak(&mut self) {
-        let m = self.measure();
-        let here = PeakState {
-            wall_position: self.state.walls.walls.iter().map(|w| w.position).collect(),
-            wall_stress: m.wall_stress,
-            macro_stress: m.macro_stress,
-        };
+        let here = PeakState::of(&self.state.walls, &self.measure());
         if self
             .peak_within
             .as_ref()

@@ -453,11 +453,7 @@ pub(super) fn append_history(
         state.increment as i64,
     ];
     let e = &report.energy;
-    let end = PeakState {
-        wall_position: state.walls.walls.iter().map(|w| w.position).collect(),
-        wall_stress: per_wall(&m.wall_stress, walls),
-        macro_stress: m.macro_stress,
-    };
+    let end = PeakState::of(&state.walls, m);
     let peak = report.peak.as_ref().unwrap_or(&end);
     let floats: [f64; 19] = [
         report.residual,
