@@ -8,7 +8,7 @@ use crate::scene::{build_grains, Scene};
 use crate::simulation::Simulation;
 use crate::solver::stats::secs;
 use crate::solver::SolverConfig;
-use crate::state::{deviator, IncrementReport, PeakState};
+use crate::state::{IncrementReport, PeakState};
 use crate::{Error, NumericError};
 use std::path::Path;
 use std::time::Instant;
@@ -200,12 +200,8 @@ pub fn run_to_end(
                 return Err(err.into());
             }
         };
-        let highest = report.peak.as_ref().map_or_else(
-            || deviator(&report.measurements.macro_stress),
-            PeakState::deviator,
-        );
-        if let Some(before) = pending.take().filter(|p| p.deviator() > highest) {
-            report.peak = Some(before);
+        if let Some(before) = pending.take() {
+            report.keep_peak(before);
         }
         on_increment(sim, &report);
         // Every stage's end is written too: a test's estimate starts from it.
@@ -219,12 +215,7 @@ pub fn run_to_end(
             }
             unwritten = None;
         } else {
-            pending = Some(
-                report
-                    .peak
-                    .clone()
-                    .unwrap_or_else(|| PeakState::of(&sim.state.walls, &report.measurements)),
-            );
+            pending = Some(report.peak_or_end(&sim.state.walls));
             unwritten = Some(report.clone());
         }
         if let Some(cause) = peaks.drop(sim, &report) {

@@ -106,6 +106,25 @@ pub struct IncrementReport {
     pub peak: Option<PeakState>,
 }
 
+impl IncrementReport {
+    /// The increment's peak, else its end on `walls` (the walls as it left them).
+    pub fn peak_or_end(&self, walls: &WallSet) -> PeakState {
+        (self.peak.clone()).unwrap_or_else(|| PeakState::of(walls, &self.measurements))
+    }
+
+    /// Take `candidate` as the increment's peak where its deviator is higher than the peak's,
+    /// else than the end's.
+    pub fn keep_peak(&mut self, candidate: PeakState) {
+        let highest = self.peak.as_ref().map_or_else(
+            || deviator(&self.measurements.macro_stress),
+            PeakState::deviator,
+        );
+        if candidate.deviator() > highest {
+            self.peak = Some(candidate);
+        }
+    }
+}
+
 /// A state within an increment, found in equilibrium on the way to its end, kept for a
 /// test's peak.
 #[derive(Debug, Clone, PartialEq, Default)]

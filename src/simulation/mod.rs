@@ -29,7 +29,7 @@ use crate::measure::{measure, Measurements, MembraneBoundary, Region};
 use crate::solver::minimise::Potential;
 use crate::solver::stats::{secs, StageTimers};
 use crate::solver::{LinearSolver, SolverConfig, SolverStats, Strategy};
-use crate::state::{deviator, IncrementReport, PeakState, State};
+use crate::state::{IncrementReport, PeakState, State};
 use crate::NumericError;
 use std::sync::Arc;
 use std::time::Instant;
@@ -232,8 +232,9 @@ impl Simulation {
         self.stats.counters.increments += 1;
         // Measure.
         report.measurements = self.measure();
-        let end = deviator(&report.measurements.macro_stress);
-        report.peak = self.peak_within.take().filter(|p| p.deviator() > end);
+        if let Some(peak) = self.peak_within.take() {
+            report.keep_peak(peak);
+        }
         Ok(report)
     }
 

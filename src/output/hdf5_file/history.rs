@@ -71,51 +71,22 @@ impl History {
     /// test's peak is read from these rows, not from the increments' ends alone.
     pub fn at_peaks(&self) -> History {
         let mut h = self.clone();
-        for (end, peak) in PEAK_OF_FLOAT {
-            let peak = self.float(peak).to_vec();
-            if let Some((_, values)) = h.floats.iter_mut().find(|(n, _)| *n == end) {
-                for (v, p) in values.iter_mut().zip(peak) {
-                    if p.is_finite() {
-                        *v = p;
-                    }
-                }
-            }
-        }
-        for (end, peak) in [
-            ("wall_position", WALL_PEAK[0]),
-            ("wall_stress", WALL_PEAK[1]),
-        ] {
-            let peak = self.wall(peak).to_vec();
-            if let Some((_, rows)) = h.walls.iter_mut().find(|(n, _)| *n == end) {
-                for (row, p) in rows.iter_mut().zip(peak) {
-                    if p.iter().all(|v| v.is_finite()) {
-                        *row = p;
-                    }
-                }
-            }
-        }
+        // After the last row, a copy of it, its peak columns at the failing increment's peak.
         if let (Some(peak), false) = (&self.failure_peak, self.is_empty()) {
             for (name, values) in &mut h.ints {
-                let last = values[values.len() - 1];
                 let next = matches!(*name, "stage_increment" | "increment");
-                values.push(if next { last + 1 } else { last });
+                values.push(values[values.len() - 1] + i64::from(next));
             }
             for (name, values) in &mut h.floats {
+                let peak_of = MACRO_PEAK.iter().find(|(_, p, _)| p == name);
                 let last = values[values.len() - 1];
-                let s = &peak.macro_stress;
-                values.push(match *name {
-                    "macro_stress_xx" => s[0][0],
-                    "macro_stress_yy" => s[1][1],
-                    "macro_stress_xy" => s[0][1],
-                    "macro_stress_yx" => s[1][0],
-                    _ => last,
-                });
+                values.push(peak_of.map_or(last, |&(_, _, [i, j])| peak.macro_stress[i][j]));
             }
             for (name, rows) in &mut h.walls {
                 let last = rows[rows.len() - 1].clone();
                 rows.push(match *name {
-                    "wall_position" => peak.wall_position.clone(),
-                    "wall_stress" => peak.wall_stress.clone(),
+                    "wall_position_peak" => peak.wall_position.clone(),
+                    "wall_stress_peak" => peak.wall_stress.clone(),
                     _ => last,
                 });
             }
@@ -128,16 +99,39 @@ impl History {
             }
         }
         h.failure_peak = None;
+        // The end's columns take the peak's, where the file has them.
+        let peaks = h.clone();
+        for (end, peak, _) in MACRO_PEAK {
+            if let Some((_, values)) = h.floats.iter_mut().find(|(n, _)| *n == end) {
+                for (v, &p) in values.iter_mut().zip(peaks.float(peak)) {
+                    if p.is_finite() {
+                        *v = p;
+                    }
+                }
+            }
+        }
+        for (end, peak) in [
+            ("wall_position", WALL_PEAK[0]),
+            ("wall_stress", WALL_PEAK[1]),
+        ] {
+            if let Some((_, rows)) = h.walls.iter_mut().find(|(n, _)| *n == end) {
+                for (row, p) in rows.iter_mut().zip(peaks.wall(peak)) {
+                    if p.iter().all(|v| v.is_finite()) {
+                        row.clone_from(p);
+                    }
+                }
+            }
+        }
         h
     }
 }
 
-/// The macro stress columns and their values at the increment's peak.
-const PEAK_OF_FLOAT: [(&str, &str); 4] = [
-    ("macro_stress_xx", "macro_stress_xx_peak"),
-    ("macro_stress_yy", "macro_stress_yy_peak"),
-    ("macro_stress_xy", "macro_stress_xy_peak"),
-    ("macro_stress_yx", "macro_stress_yx_peak"),
+/// The macro stress columns, their values at the increment's peak, and the component.
+const MACRO_PEAK: [(&str, &str, [usize; 2]); 4] = [
+    ("macro_stress_xx", "macro_stress_xx_peak", [0, 0]),
+    ("macro_stress_yy", "macro_stress_yy_peak", [1, 1]),
+    ("macro_stress_xy", "macro_stress_xy_peak", [0, 1]),
+    ("macro_stress_yx", "macro_stress_yx_peak", [1, 0]),
 ];
 
 /// The `/history` table, keeping only rows whose increment group is complete: a run killed
@@ -453,8 +447,7 @@ pub(super) fn append_history(
         state.increment as i64,
     ];
     let e = &report.energy;
-    let end = PeakState::of(&state.walls, m);
-    let peak = report.peak.as_ref().unwrap_or(&end);
+    let peak = report.peak_or_end(&state.walls);
     let floats: [f64; 19] = [
         report.residual,
         m.contacts_per_grain,
