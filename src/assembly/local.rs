@@ -37,6 +37,9 @@ pub struct LocalBlock {
     pub force: [f64; 6],
     /// Tangent `-df/dq`, row-major over the reduced unknowns.
     pub stiffness: [[f64; 6]; 6],
+    /// A second force on each reduced unknown, where one is asked for: what the shear force's
+    /// true push has beyond the potential's gradient ([`frame_turn_force`]).
+    pub second_force: [f64; 6],
 }
 
 /// The force and, when `tangent` says which, the tangent of one contact, reduced to the
@@ -61,7 +64,7 @@ pub fn contact_block(
     let f: [f64; 6] = std::array::from_fn(|a| -(r.normal_force * bn[a] + r.shear_force * push[a]));
     match tangent {
         None => reduce(&f, None, map, out),
-        Some(tangent) if map.direct => {
+        Some(tangent) if map.is_direct() => {
             out.force = f;
             local_tangent(k, r, tangent, &mut out.stiffness);
         }
@@ -115,12 +118,12 @@ fn local_tangent(k: &Kinematics, r: &Response, tangent: BlockTangent, kl: &mut [
 
 /// What the true push of a contact's shear force on its sides (along `B_t`) has beyond its
 /// push as the exact gradient of the contact's potential (along `S`), reduced to the unknowns
-/// of `map`, into `out`'s force: the part of the force the turning tangent leaves out of the
-/// potential.
+/// of `map`, into `out`'s second force: the part of the force the turning tangent leaves out
+/// of the potential.
 pub fn frame_turn_force(k: &Kinematics, r: &Response, map: &PairMap, out: &mut LocalBlock) {
     let (bt, scaled) = (shear_push(k), turning_push(k));
     let f: [f64; 6] = std::array::from_fn(|a| -r.shear_force * (bt[a] - scaled[a]));
-    reduce(&f, None, map, out)
+    out.second_force = reduce_force(&f, map);
 }
 
 /// `B_t = d(shear)/dq` with the tangent held.
@@ -142,23 +145,35 @@ fn turning_push(k: &Kinematics) -> [f64; 6] {
 /// The local force (and tangent) reduced to the unknowns of `map`, into `out` (its stiffness
 /// left as it was without a tangent).
 fn reduce(f: &[f64; 6], kl: Option<&[[f64; 6]; 6]>, map: &PairMap, out: &mut LocalBlock) {
-    if map.direct && kl.is_none() {
-        out.force = *f;
+    out.force = reduce_force(f, map);
+    let (Some(kl), Some(feeds)) = (kl, &map.feeds) else {
+        if let Some(kl) = kl {
+            out.stiffness = *kl;
+        }
         return;
-    }
-    out.force = [0.0; 6];
-    if kl.is_some() {
-        out.stiffness = [[0.0; 6]; 6];
-    }
-    for (a, feeds_a) in map.feeds.iter().enumerate() {
+    };
+    out.stiffness = [[0.0; 6]; 6];
+    for (a, feeds_a) in feeds.iter().enumerate() {
         for &(ra, wa) in feeds_a.iter().flatten() {
-            out.force[ra] += wa * f[a];
-            let Some(kl) = kl else { continue };
-            for (b, feeds_b) in map.feeds.iter().enumerate() {
+            for (b, feeds_b) in feeds.iter().enumerate() {
                 for &(rb, wb) in feeds_b.iter().flatten() {
                     out.stiffness[ra][rb] += wa * wb * kl[a][b];
                 }
             }
         }
     }
+}
+
+/// A local force reduced to the unknowns of `map`.
+fn reduce_force(f: &[f64; 6], map: &PairMap) -> [f64; 6] {
+    let Some(feeds) = &map.feeds else {
+        return *f;
+    };
+    let mut out = [0.0; 6];
+    for (a, feeds_a) in feeds.iter().enumerate() {
+        for &(ra, wa) in feeds_a.iter().flatten() {
+            out[ra] += wa * f[a];
+        }
+    }
+    out
 }

@@ -188,8 +188,8 @@ impl DofMap {
             Side::Wall(w) => {
                 if let Some(dof) = self.wall[w] {
                     let k = m.add(dof);
-                    m.feeds[0][0] = Some((k, n[0]));
-                    m.feeds[1][0] = Some((k, n[1]));
+                    m.feeds_mut()[0][0] = Some((k, n[0]));
+                    m.feeds_mut()[1][0] = Some((k, n[1]));
                 }
             }
         }
@@ -198,19 +198,32 @@ impl DofMap {
     }
 }
 
+/// For each of a contact's 6 local entries: (index into its map's `dofs`, weight), up to
+/// three (a glued grain's centre follows its wall and its span walls).
+pub type Feeds = [[Option<(usize, f64)>; 3]; 6];
+
 /// The unknowns one contact touches (at most 6) and how its 6 local entries feed them.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PairMap {
     /// Global unknowns, in local order.
     pub dofs: [usize; 6],
     /// How many of `dofs` are used.
     pub len: usize,
-    /// For each local entry: (index into `dofs`, weight), up to three (a glued grain's
-    /// centre follows its wall and its span walls).
-    pub feeds: [[Option<(usize, f64)>; 3]; 6],
-    /// Whether each local entry is the unknown of the same index with weight 1 (two free
-    /// grains with rotations): the block needs no reduction.
-    pub direct: bool,
+    /// How the local entries feed `dofs`; `None` where each feeds the unknown of its own index
+    /// with weight 1 (two free grains with rotations, most contacts): the block needs no
+    /// reduction, and the map, made at every evaluation, is six numbers.
+    pub feeds: Option<Feeds>,
+}
+
+impl Default for PairMap {
+    /// A map that touches no unknown.
+    fn default() -> PairMap {
+        PairMap {
+            dofs: [0; 6],
+            len: 0,
+            feeds: None,
+        }
+    }
 }
 
 impl PairMap {
@@ -219,9 +232,28 @@ impl PairMap {
         PairMap {
             dofs: [a, a + 1, a + 2, b, b + 1, b + 2],
             len: 6,
-            feeds: std::array::from_fn(|k| [Some((k, 1.0)), None, None]),
-            direct: true,
+            feeds: None,
         }
+    }
+
+    /// Whether each local entry is the unknown of the same index with weight 1.
+    pub fn is_direct(&self) -> bool {
+        self.feeds.is_none()
+    }
+
+    /// What local entry `entry` feeds: (index into `dofs`, weight).
+    pub fn feeds_of(&self, entry: usize) -> impl Iterator<Item = (usize, f64)> + '_ {
+        let reduced = self
+            .feeds
+            .as_ref()
+            .map(|f| f[entry].iter().flatten().copied());
+        let direct = self.feeds.is_none().then_some((entry, 1.0));
+        reduced.into_iter().flatten().chain(direct)
+    }
+
+    /// The feeds of a map that reduces its block, to be written.
+    fn feeds_mut(&mut self) -> &mut Feeds {
+        self.feeds.get_or_insert([[None; 3]; 6])
     }
 
     /// The index of `dof` in `dofs`, added if it is not there yet (both sides of a contact
@@ -241,8 +273,8 @@ impl PairMap {
                 for (j, &(w, v)) in glue.follows.iter().flatten().enumerate() {
                     if let Some(dof) = map.wall[w] {
                         let k = self.add(dof);
-                        self.feeds[at][j] = Some((k, v[0]));
-                        self.feeds[at + 1][j] = Some((k, v[1]));
+                        self.feeds_mut()[at][j] = Some((k, v[0]));
+                        self.feeds_mut()[at + 1][j] = Some((k, v[1]));
                     }
                 }
             }
@@ -250,12 +282,21 @@ impl PairMap {
                 let base = map.grain(i);
                 for k in 0..map.per_grain {
                     let slot = self.add(base + k);
-                    self.feeds[at + k][0] = Some((slot, 1.0));
+                    self.feeds_mut()[at + k][0] = Some((slot, 1.0));
                 }
             }
         }
     }
 }
+
+/// One thread's share of a scatter: its range of unknowns and its parts of the residual, the
+/// second force and the tangent's values.
+type ScatterPart<'a> = (
+    Range<usize>,
+    &'a mut [f64],
+    Option<&'a mut [f64]>,
+    Option<&'a mut [f64]>,
+);
 
 /// The fixed sparsity pattern (full storage, both triangles) and where each pair's block lands
 /// in the value array.
@@ -393,7 +434,8 @@ impl Pattern {
     /// Add each contact's force to `residual` and its stiffness to `tangent` (this pattern's
     /// values), for contacts `0..pair_index.len()`: contact `i` is friend pair
     /// `pair_index[i]`, touches the unknowns `map(i)` and has the block `block(i, &map(i), _)`
-    /// makes (its stiffness is read only when `tangent` is given).
+    /// makes (its stiffness is read only when `tangent` is given, its second force only when
+    /// `second` is, which it is added to as the force is to `residual`).
     /// The unknowns are split into one range per thread, rows of the residual and columns of
     /// the tangent, and each thread goes through all contacts in their order, adding the
     /// blocks of those that touch its range where they fall in it: no two threads write one
@@ -405,6 +447,7 @@ impl Pattern {
         map: impl Fn(usize) -> PairMap + Sync,
         block: impl Fn(usize, &PairMap, &mut LocalBlock) + Sync,
         residual: &mut [f64],
+        second: Option<&mut [f64]>,
         tangent: Option<&mut [f64]>,
     ) {
         let col_ptr = self.symbolic.col_ptr();
@@ -418,46 +461,53 @@ impl Pattern {
             vec![0, residual.len()]
         };
         let mut parts = Vec::with_capacity(bounds.len() - 1);
-        let (mut rest, mut rest_values) = (residual, tangent);
+        let (mut rest, mut rest_second, mut rest_values) = (residual, second, tangent);
         for range in bounds.windows(2) {
             let (part, after) = std::mem::take(&mut rest).split_at_mut(range[1] - range[0]);
             rest = after;
+            let second = rest_second.take().map(|v| {
+                let (part, after) = v.split_at_mut(range[1] - range[0]);
+                rest_second = Some(after);
+                part
+            });
             let values = rest_values.take().map(|v| {
                 let (part, after) = v.split_at_mut(col_ptr[range[1]] - col_ptr[range[0]]);
                 rest_values = Some(after);
                 part
             });
-            parts.push((range[0]..range[1], part, values));
+            parts.push((range[0]..range[1], part, second, values));
         }
-        let add =
-            |(range, residual, mut values): (Range<usize>, &mut [f64], Option<&mut [f64]>)| {
-                let offset = col_ptr[range.start];
-                let mut local = LocalBlock::default();
-                for (i, &p) in pair_index.iter().enumerate() {
-                    let map = map(i);
-                    let dofs = &map.dofs[..map.len];
-                    if !dofs.iter().any(|d| range.contains(d)) {
-                        continue;
-                    }
-                    block(i, &map, &mut local);
-                    let slots = self.pair_slots(p);
-                    for (a, &row) in dofs.iter().enumerate() {
-                        if range.contains(&row) {
-                            residual[row - range.start] += local.force[a];
-                        }
-                    }
-                    let Some(values) = values.as_deref_mut() else {
-                        continue;
-                    };
-                    for (b, slots) in slots.chunks_exact(map.len).enumerate() {
-                        if range.contains(&dofs[b]) {
-                            for (row, &slot) in local.stiffness.iter().zip(slots) {
-                                values[slot - offset] += row[b];
-                            }
+        let add = |(range, residual, mut second, mut values): ScatterPart<'_>| {
+            let offset = col_ptr[range.start];
+            let mut local = LocalBlock::default();
+            for (i, &p) in pair_index.iter().enumerate() {
+                let map = map(i);
+                let dofs = &map.dofs[..map.len];
+                if !dofs.iter().any(|d| range.contains(d)) {
+                    continue;
+                }
+                block(i, &map, &mut local);
+                let slots = self.pair_slots(p);
+                for (a, &row) in dofs.iter().enumerate() {
+                    if range.contains(&row) {
+                        residual[row - range.start] += local.force[a];
+                        if let Some(second) = second.as_deref_mut() {
+                            second[row - range.start] += local.second_force[a];
                         }
                     }
                 }
-            };
+                let Some(values) = values.as_deref_mut() else {
+                    continue;
+                };
+                for (b, slots) in slots.chunks_exact(map.len).enumerate() {
+                    if range.contains(&dofs[b]) {
+                        for (row, &slot) in local.stiffness.iter().zip(slots) {
+                            values[slot - offset] += row[b];
+                        }
+                    }
+                }
+            }
+        };
         if parts.len() > 1 {
             parts.into_par_iter().for_each(add);
         } else {

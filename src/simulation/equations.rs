@@ -381,34 +381,28 @@ impl IncrementEquations<'_> {
                 dofs.pair_map(c.pair, push_direction(walls, c.pair, &kin[i]))
             }
         };
+        // On a refreeze the frame turn's force is taken in the same pass (a second force).
+        let turn = exact && self.refreeze;
+        let mut correction = std::mem::take(&mut self.frame_correction);
+        if turn {
+            correction.clear();
+            correction.resize(residual.len(), 0.0);
+        }
         self.pattern.scatter(
             self.pair_index,
             map_of,
             |i, map, out| {
-                contact_block(
-                    &kin[i],
-                    &contacts[i].response,
-                    map,
-                    tangent_kind,
-                    exact,
-                    out,
-                )
+                let (k, r) = (&kin[i], &contacts[i].response);
+                contact_block(k, r, map, tangent_kind, exact, out);
+                if turn {
+                    frame_turn_force(k, r, map, out);
+                }
             },
             residual,
+            turn.then_some(&mut correction[..]),
             tangent.as_deref_mut(),
         );
-        if exact && self.refreeze {
-            let correction = &mut self.frame_correction;
-            correction.clear();
-            correction.resize(residual.len(), 0.0);
-            self.pattern.scatter(
-                self.pair_index,
-                map_of,
-                |i, map, out| frame_turn_force(&kin[i], &contacts[i].response, map, out),
-                correction,
-                None,
-            );
-        }
+        self.frame_correction = correction;
         self.membrane_loads(residual, tangent.as_deref_mut());
         self.anchor_springs(u, residual, tangent.as_deref_mut());
         self.glue_springs(u, residual, tangent);

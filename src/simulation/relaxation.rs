@@ -438,10 +438,10 @@ impl BlockEquations for GrainByGrain<'_> {
                 -k.lever_b,
             ];
             let mut shear = [0.0; 3];
-            for (entry, feeds) in map.feeds.iter().enumerate() {
-                for &(slot, weight) in feeds.iter().flatten() {
+            for (entry, push) in bt.iter().enumerate() {
+                for (slot, weight) in map.feeds_of(entry) {
                     if let Some(l) = local(map.dofs[slot]) {
-                        shear[l] += weight * bt[entry];
+                        shear[l] += weight * push;
                     }
                 }
             }
