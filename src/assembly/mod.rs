@@ -162,11 +162,6 @@ impl DofMap {
         self.glue[g].is_some() || self.taken_out[g]
     }
 
-    /// Whether `dof` is one of a held grain's own unknowns ([`DofMap::grain_held`]).
-    pub fn held(&self, dof: usize) -> bool {
-        self.owner(dof).is_some_and(|g| self.grain_held(g))
-    }
-
     /// The reduced unknowns of a pair and, for each of the 6 local entries
     /// `[xa, ya, phia, xb, yb, phib]`, which reduced unknown it feeds and with what weight.
     /// A wall's unknown (its move into the sample) feeds `xa, ya` along `n`, the direction it

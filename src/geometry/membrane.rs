@@ -5,7 +5,7 @@
 //! centres, each segment `e` carrying `p D |e|` along its inward normal, half to each end.
 //! The load enters the global equations directly (no servo), with its tangent.
 
-use super::CellGrid;
+use super::{surely_longer, CellGrid};
 use std::f64::consts::TAU;
 
 /// Which boundary a membrane covers.
@@ -118,11 +118,14 @@ impl Membrane {
             grid: CellGrid::new(position, 2.0 * (r_max + probe)),
         };
         let dot = |u: [f64; 2], v: [f64; 2]| u[0] * v[0] + u[1] * v[1];
+        // The last of the grains that reach furthest.
         let outermost = |reach: &dyn Fn(usize) -> f64| {
             (0..position.len())
                 .filter(|&i| carrying[i])
-                .max_by(|&a, &b| reach(a).total_cmp(&reach(b)))
+                .map(|i| (reach(i), i))
+                .max_by(|a, b| a.0.total_cmp(&b.0))
                 .expect("grains")
+                .1
         };
         match self.shape {
             MembraneShape::Side { outward } => {
@@ -262,8 +265,14 @@ impl Roll<'_> {
         for j in self.grid.near(p) {
             let q = self.position[j];
             let b = self.radius[j] + self.probe;
-            let d = (q[0] - p[0]).hypot(q[1] - p[1]);
-            if j == i || !self.carrying[j] || d >= a + b || d <= (a - b).abs() {
+            let branch = [q[0] - p[0], q[1] - p[1]];
+            // Most grains near are out of the probe's reach, which needs no square root.
+            let reach = a + b;
+            if j == i || !self.carrying[j] || surely_longer(branch, reach) {
+                continue;
+            }
+            let d = branch[0].hypot(branch[1]);
+            if d >= reach || d <= (a - b).abs() {
                 continue;
             }
             // The probe touches `j` at angles alpha -+ beta about `i`; rolling in `sense` it

@@ -457,6 +457,21 @@ impl WallSet {
     }
 }
 
+/// Squared lengths within this share of a squared limit are too close to it to be compared
+/// without the length itself: the rounding of either is a few parts in 10^16.
+const SQUARED_DOUBT: f64 = 1e-12;
+
+/// Whether `v` is longer than `limit` beyond doubt, told from its squared length without a
+/// square root; where this says no, the length may still be, and `hypot` decides.
+pub fn surely_longer(v: [f64; 2], limit: f64) -> bool {
+    v[0] * v[0] + v[1] * v[1] > (1.0 + SQUARED_DOUBT) * limit * limit
+}
+
+/// Whether `v` is shorter than `limit` beyond doubt (see [`surely_longer`]).
+pub fn surely_shorter(v: [f64; 2], limit: f64) -> bool {
+    v[0] * v[0] + v[1] * v[1] < (1.0 - SQUARED_DOUBT) * limit * limit
+}
+
 /// `v` turned by `angle` (rad, anticlockwise).
 pub fn rotate(v: [f64; 2], angle: f64) -> [f64; 2] {
     let (s, c) = angle.sin_cos();

@@ -24,7 +24,7 @@ impl Simulation {
     /// The grains' contacts go: an intact bond with a grain left in the sample breaks (in
     /// tension, recorded in `broken_bonds` and counted in the breakout's `bonds_broken`,
     /// which the caller adds to its increment's report), bonds within the cluster go with
-    /// it. Their unknowns are held at zero from then on ([`crate::assembly::DofMap::held`]),
+    /// it. Their unknowns are held at zero from then on ([`crate::assembly::DofMap::grain_held`]),
     /// so they stay where they are; they have no friends, anchor nothing and carry no
     /// membrane. The energy their contacts stored is counted as carried away in this
     /// increment's balance ([`crate::simulation::EnergyBalance::taken_out`]). The friends

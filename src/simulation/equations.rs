@@ -485,7 +485,8 @@ impl IncrementEquations<'_> {
 
     /// A glued grain's own unknowns: springs of a contact's stiffness hold them at zero.
     fn glue_springs(&self, u: &[f64], residual: &mut [f64], mut tangent: Option<&mut [f64]>) {
-        for dof in (0..self.dofs.len).filter(|&dof| self.dofs.held(dof)) {
+        let held = (0..self.dofs.grains).filter(|&g| self.dofs.grain_held(g));
+        for dof in held.flat_map(|g| self.dofs.grain(g)..self.dofs.grain(g) + self.dofs.per_grain) {
             let k = self.stiffness_hint * self.unit_stiffness(dof);
             residual[dof] -= k * u[dof];
             if let Some(t) = tangent.as_deref_mut() {

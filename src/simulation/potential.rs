@@ -7,7 +7,7 @@
 use super::equations::{IncrementEquations, CLOSING_OVERLAP, REACH};
 use super::grain_balance::{GrainBalance, LocalContact};
 use crate::contact::{friction, kinematics, Contact, Kinematics, Response};
-use crate::geometry::{chains, Side};
+use crate::geometry::{chains, surely_shorter, Side};
 use crate::solver::minimise::Potential;
 use crate::NumericError;
 
@@ -274,8 +274,12 @@ impl Potential for IncrementEquations<'_> {
         let per = self.dofs.per_grain;
         for (i, p) in self.q.position.iter().enumerate() {
             let q = self.friends.reference[i];
-            let moved = (p[0] - q[0]).hypot(p[1] - q[1]);
-            fraction = fraction.min(share(moved, du[i * per].hypot(du[i * per + 1])));
+            let (moved, step) = ([p[0] - q[0], p[1] - q[1]], [du[i * per], du[i * per + 1]]);
+            // Most grains stay well within reach, which needs no square root.
+            if surely_shorter(moved, 0.5 * reach) && surely_shorter(step, 0.5 * reach) {
+                continue;
+            }
+            fraction = fraction.min(share(moved[0].hypot(moved[1]), step[0].hypot(step[1])));
         }
         for (w, dof) in self.dofs.wall.iter().enumerate() {
             if let Some(dof) = *dof {
@@ -570,8 +574,8 @@ impl Potential for IncrementEquations<'_> {
     fn runaway(&self, _u: &[f64]) -> Vec<usize> {
         (0..self.grains.len())
             .filter(|&i| {
-                let d = self.q.displacement[i];
-                d[0].hypot(d[1]) > 2.0 * self.grains.radius[i]
+                let (d, diameter) = (self.q.displacement[i], 2.0 * self.grains.radius[i]);
+                !surely_shorter(d, diameter) && d[0].hypot(d[1]) > diameter
             })
             .collect()
     }
