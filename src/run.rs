@@ -163,6 +163,7 @@ pub fn run_to_end(
     // The peak of the increments not written since the last row: the next row carries it.
     let mut pending: Option<PeakState> = None;
     while !sim.is_finished() {
+        sim.drop_floor = peaks.floors(sim);
         let mut report = match sim.run_increment() {
             Ok(report) => report,
             Err(err) => {
@@ -261,8 +262,7 @@ impl PeakForces {
 
     /// The load drop that `report` shows, if its stage watches for one.
     fn drop(&mut self, sim: &Simulation, report: &IncrementReport) -> Option<FailureCause> {
-        let stage = &sim.stages[report.stage];
-        let fraction = stage.failure_drop.filter(|_| stage.until_failure)?;
+        let fraction = watched_drop(sim, report.stage)?;
         let force = &report.measurements.wall_normal_force;
         if self.stage != report.stage || self.peak.len() != force.len() {
             *self = PeakForces {
@@ -272,9 +272,7 @@ impl PeakForces {
         }
         let walls = &sim.state.walls.walls;
         for (w, wall) in walls.iter().enumerate() {
-            let pushed = wall.control == crate::geometry::WallControl::Displacement
-                && stage.normal_move[w] != 0.0;
-            if !pushed {
+            if !pushed(sim, report.stage, w) {
                 continue;
             }
             self.peak[w] = self.peak[w].max(force[w]);
@@ -288,6 +286,35 @@ impl PeakForces {
         }
         None
     }
+
+    /// Each wall's force below which the next increment shows the load drop: its stage's
+    /// `failure_drop` times the wall's peak so far in the stage, for the walls it pushes; zero
+    /// for the others, and for all at a stage's first increment.
+    fn floors(&self, sim: &Simulation) -> Vec<f64> {
+        let stage = sim.state.stage;
+        let walls = sim.state.walls.len();
+        match watched_drop(sim, stage) {
+            Some(fraction) if self.stage == stage && self.peak.len() == walls => (0..walls)
+                .map(|w| match pushed(sim, stage, w) {
+                    true => fraction * self.peak[w],
+                    false => 0.0,
+                })
+                .collect(),
+            _ => vec![0.0; walls],
+        }
+    }
+}
+
+/// The `failure_drop` of stage `stage`, where it is loaded until failure.
+fn watched_drop(sim: &Simulation, stage: usize) -> Option<f64> {
+    let stage = sim.stages.get(stage)?;
+    stage.failure_drop.filter(|_| stage.until_failure)
+}
+
+/// Whether stage `stage` pushes wall `w`: displacement-controlled and moved.
+fn pushed(sim: &Simulation, stage: usize, w: usize) -> bool {
+    sim.state.walls.walls[w].control == crate::geometry::WallControl::Displacement
+        && sim.stages[stage].normal_move[w] != 0.0
 }
 
 /// The failure in `(increment, stage)`, with the loads of the simulation's committed state.

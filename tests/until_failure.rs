@@ -1,10 +1,12 @@
 //! A stage loaded until failure (`until_failure = true`) ends the run at the increment that
-//! finds no equilibrium near, as a success that says where and at which loads; in any other
+//! finds no equilibrium near, or whose bond cascade drops a pushed wall's force below the
+//! stage's `failure_drop`, as a success that says where and at which loads; in any other
 //! stage that increment stays an error, and so does, in any stage, an increment the solver
 //! gave up on.
 
 mod common;
 
+use grainstat::geometry::WallControl;
 use grainstat::run::{run_to_end, FailureCause, RunEnd};
 use grainstat::scene::{build_grains, parse_scene, Scene};
 use grainstat::simulation::Simulation;
@@ -94,4 +96,42 @@ fn an_increment_the_solver_gives_up_on_is_an_error_in_any_stage() {
             "until failure {until_failure}: {end:?}"
         );
     }
+}
+
+/// The cemented crystal of 21 rows of 8 (`samples::crystal_biaxial`) pushed down under
+/// displacement control until it fails, watching for its top's force to fall below
+/// `failure_drop` of its peak. Past the peak its bonds break in a cascade at one wall
+/// displacement, through which the top's force falls gradually (measured: to 0.77 of its
+/// peak 38 bonds in); followed on, the cascade leaves rubble in which the solver gives up
+/// (measured: "did not converge" after 14 halvings, as it still does with
+/// `failure_drop = 0.5`, a drop the cascade has not reached by then). The failure stands at
+/// the cascade's first equilibrium past the drop, and the test ends there.
+#[test]
+fn a_bond_cascade_that_drops_the_load_ends_the_test_there() {
+    let mut scene = samples::crystal_biaxial(21, 8, 1e6, 1e6);
+    let stage = &mut scene.stages[1];
+    stage.increments = 20;
+    stage.stress.clear();
+    stage
+        .control
+        .insert("top".into(), WallControl::Displacement);
+    stage
+        .displacement
+        .insert("top".into(), 2.931281292110204e-4);
+    stage.failure_drop = Some(0.8);
+    let (end, sim) = run(scene, SolverConfig::default(), true);
+    let failure = match end {
+        Ok(RunEnd::Failed(failure)) => failure,
+        other => panic!("expected the crystal's brittle failure, got {other:?}"),
+    };
+    let FailureCause::LoadDrop { wall, peak, force } = &failure.cause else {
+        panic!("expected the load drop, got {}", failure.cause);
+    };
+    assert_eq!(wall, "top");
+    assert!(*force < 0.8 * peak, "{force} N against a peak of {peak} N");
+    // The drop is the cascade's: bonds broke in the failing increment, which is written.
+    assert_eq!(failure.last_increment, failure.increment);
+    let broken = &sim.state.contacts.broken_bonds;
+    let in_it = broken.iter().filter(|b| b.increment == failure.increment);
+    assert!(in_it.count() > 10, "{failure}");
 }

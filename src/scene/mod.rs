@@ -338,19 +338,21 @@ pub struct Stage {
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub glue: Vec<String>,
     /// Load until the sample fails (`until_failure = true`): a load-controlled test that
-    /// reaches collapse has no equilibrium beyond it, and a brittle sample pushed past its
-    /// peak may snap back, off any quasi-static path from the last equilibrium; so an
-    /// increment of this stage that does not converge even after the solver's `max_cuts`
-    /// halvings ends the test there. The last
-    /// converged state is written, the run says at which increment and load the sample
-    /// failed, and it ends with exit status 0. Without it (the default) such an increment is
-    /// an error (exit status 3).
+    /// reaches collapse has no equilibrium beyond it, so an increment of this stage that
+    /// finds no equilibrium near (grains carried on while the potential falls, the load
+    /// bracketed by halving) ends the test there. The last converged state is written, the
+    /// run says at which increment and load the sample failed, and it ends with exit status
+    /// 0. Without it (the default) such an increment is an error (exit status 3), as an
+    /// increment the solver gives up on is in any stage.
     #[serde(default)]
     pub until_failure: bool,
     /// In a stage loaded until failure, the sample has failed too once the force on a wall
     /// the stage pushes (displacement-controlled and moved) falls below this fraction of its
     /// peak in the stage: a brittle beam that breaks through may still find an equilibrium
-    /// in pieces. The increment that shows the drop is written and ends the test.
+    /// in pieces. The increment that shows the drop is written and ends the test. Where a
+    /// bond cascade at one wall displacement takes the force below it and the solver then
+    /// gives up on the rubble the cascade goes on to leave, the cascade's first equilibrium
+    /// past the drop is the increment's: the brittle failure is established there.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub failure_drop: Option<f64>,
     /// In a stage loaded until failure, a cluster of grains that breaks out of the sample (no

@@ -4,8 +4,8 @@
 //! lists made anew wherever a step reaches their edge, bonds broken one at a time with the
 //! grains settled anew after each, then the commit.
 
-use super::{friends_around, LoadStep, Simulation, CHAIN_CHANGES, REACH_REBUILD};
-use crate::contact::{kinematics, BrokenBond, Configuration, Contact, Lag};
+use super::{friends_around, EnergyBalance, LoadStep, Simulation, CHAIN_CHANGES, REACH_REBUILD};
+use crate::contact::{kinematics, BrokenBond, Configuration, Contact, ContactSet, Lag};
 use crate::solver::minimise::{self, MinimiseSettings, Potential, SystemMatrix};
 use crate::solver::stats::secs;
 use crate::state::{IncrementReport, PeakState};
@@ -300,7 +300,10 @@ impl Simulation {
 
     /// The step's equilibrium from the predictor, then, while a bond is past its strength,
     /// the most overloaded one broken and the equilibrium found anew from there: a cascade
-    /// at the step's load. Nothing (and nothing broken) where the step is `wide` and its
+    /// at the step's load. Where the solver gives up on the cascade after it has taken a
+    /// wall's force below its [`Simulation::drop_floor`] (the stage's `failure_drop`), the
+    /// first equilibrium that did is the step's: the brittle failure is established there,
+    /// and the rubble the cascade goes on to leave need not be solved for. Nothing (and nothing broken) where the step is `wide` and its
     /// first equilibrium has a bond past its strength: the bond is broken at the load that
     /// breaks it, found within [`BRACKET`], not at the end of a step past it, so that
     /// failure loads do not depend on the increment size (method note, step 5).
@@ -326,11 +329,48 @@ impl Simulation {
         {
             return Ok(None);
         }
+        // The cascade's first equilibrium that dropped the load, kept while the cascade goes
+        // on: where it cannot be followed to its end, the failure stands there.
+        let mut dropped: Option<Dropped> = None;
         while self.break_most_overloaded_bond() {
             report.bonds_broken += 1;
-            self.minimise(step, &mut u, report)?;
+            match self.minimise(step, &mut u, report) {
+                Ok(()) => {}
+                Err(NumericError::NotConverged { .. }) if dropped.is_some() => {
+                    let Some(d) = dropped else { unreachable!() };
+                    (self.state.contacts, self.energy) = (d.contacts, d.energy);
+                    report.bonds_broken = d.bonds_broken;
+                    self.renew_lists(step, &d.u)?;
+                    return Ok(Some(d.u));
+                }
+                Err(e) => return Err(e),
+            }
+            if dropped.is_none() && self.load_dropped(step, &u) {
+                dropped = Some(Dropped {
+                    u: u.clone(),
+                    contacts: self.state.contacts.clone(),
+                    energy: self.energy,
+                    bonds_broken: report.bonds_broken,
+                });
+            }
         }
         Ok(Some(u))
+    }
+
+    /// Whether the equilibrium at `u` takes a wall's force below its [`Simulation::drop_floor`].
+    fn load_dropped(&mut self, step: &LoadStep, u: &[f64]) -> bool {
+        if self.drop_floor.iter().all(|&floor| floor <= 0.0) {
+            return false;
+        }
+        // Measured as it would be committed, then put back.
+        let (state, energy, q) = (self.state.clone(), self.energy, self.q.clone());
+        self.commit(step, u);
+        let force = self.measure().wall_normal_force;
+        (self.state, self.energy, self.q) = (state, energy, q);
+        force
+            .iter()
+            .zip(&self.drop_floor)
+            .any(|(f, floor)| f < floor)
     }
 
     /// Where the minimisation starts, with the friends lists reaching it: the predictor where
@@ -588,6 +628,15 @@ impl Simulation {
         self.stats.counters.bonds_broken += 1;
         true
     }
+}
+
+/// A cascade's equilibrium that dropped the load (see [`Simulation::drop_floor`]): the
+/// displacements, the contacts and the energy spent there, and the bonds broken by then.
+struct Dropped {
+    u: Vec<f64>,
+    contacts: ContactSet,
+    energy: EnergyBalance,
+    bonds_broken: usize,
 }
 
 #[cfg(test)]

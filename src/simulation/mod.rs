@@ -57,6 +57,11 @@ pub struct Simulation {
     /// The part of the increment being solved (or of the last, where it found no equilibrium
     /// near) found in equilibrium with the highest macro deviator, short of its end.
     pub peak_within: Option<PeakState>,
+    /// Each wall's force below which the load has dropped in this stage: its `failure_drop`
+    /// times the wall's peak so far, set by the run before each increment (zero, or empty,
+    /// where none is watched). A bond cascade that takes a wall's force below it is the
+    /// sample's brittle failure at the cascade's load, and stops there.
+    pub drop_floor: Vec<f64>,
     law: Box<dyn ContactLaw>,
     r_mean: f64,
     dofs: DofMap,
@@ -146,6 +151,7 @@ impl Simulation {
             last_residuals: Vec::new(),
             regions: Vec::new(),
             peak_within: None,
+            drop_floor: Vec::new(),
             law,
             r_mean,
             q: Configuration::at_rest(&state.grains, &state.walls),
