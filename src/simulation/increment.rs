@@ -339,7 +339,8 @@ impl Simulation {
                 Err(NumericError::NotConverged { .. }) if dropped.is_some() => {
                     let Some(d) = dropped else { unreachable!() };
                     (self.state.contacts, self.energy) = (d.contacts, d.energy);
-                    report.bonds_broken = d.bonds_broken;
+                    (report.bonds_broken, report.residual) = (d.bonds_broken, d.residual);
+                    self.last_residuals = d.residuals;
                     self.renew_lists(step, &d.u)?;
                     return Ok(Some(d.u));
                 }
@@ -351,6 +352,8 @@ impl Simulation {
                     contacts: self.state.contacts.clone(),
                     energy: self.energy,
                     bonds_broken: report.bonds_broken,
+                    residual: report.residual,
+                    residuals: self.last_residuals.clone(),
                 });
             }
         }
@@ -631,12 +634,15 @@ impl Simulation {
 }
 
 /// A cascade's equilibrium that dropped the load (see [`Simulation::drop_floor`]): the
-/// displacements, the contacts and the energy spent there, and the bonds broken by then.
+/// displacements, the contacts and the energy spent there, the bonds broken by then, and
+/// the residual the minimisation reached there with its history.
 struct Dropped {
     u: Vec<f64>,
     contacts: ContactSet,
     energy: EnergyBalance,
     bonds_broken: usize,
+    residual: f64,
+    residuals: Vec<f64>,
 }
 
 #[cfg(test)]
