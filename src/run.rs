@@ -8,7 +8,7 @@ use crate::scene::{build_grains, Scene};
 use crate::simulation::Simulation;
 use crate::solver::stats::secs;
 use crate::solver::SolverConfig;
-use crate::state::{IncrementReport, PeakState};
+use crate::state::{IncrementReport, PeakState, State};
 use crate::{Error, NumericError};
 use std::path::Path;
 use std::time::Instant;
@@ -155,7 +155,9 @@ pub fn run_to_end(
     every: usize,
     mut on_increment: impl FnMut(&Simulation, &IncrementReport),
 ) -> Result<RunEnd, Error> {
-    let mut unwritten: Option<IncrementReport> = None;
+    // The last increment not on file yet, with its state: an increment that fails after it
+    // leaves the simulation's state past it (the halves that converged are committed).
+    let mut unwritten: Option<(IncrementReport, State)> = None;
     let mut peaks = match file.as_deref() {
         Some(f) => PeakForces::written(f.path(), sim.state.stage)?,
         None => PeakForces::default(),
@@ -171,7 +173,7 @@ pub fn run_to_end(
                 // (the summary goes with it), else the summary of the work spent.
                 if let Some(f) = file.as_deref_mut() {
                     match unwritten.take() {
-                        Some(last) => f.write_increment(&sim.state, &last, &sim.stats)?,
+                        Some((last, state)) => f.write_increment(&state, &last, &sim.stats)?,
                         None => f.write_summary(&sim.stats)?,
                     }
                     // No equilibrium near: the mechanism, as the descent carried it.
@@ -217,11 +219,11 @@ pub fn run_to_end(
             unwritten = None;
         } else {
             pending = Some(report.peak_or_end(&sim.state.walls));
-            unwritten = Some(report.clone());
+            unwritten = Some((report.clone(), sim.state.clone()));
         }
         if let Some(cause) = peaks.drop(sim, &report) {
-            if let (Some(f), Some(last)) = (file.as_deref_mut(), unwritten.take()) {
-                f.write_increment(&sim.state, &last, &sim.stats)?;
+            if let (Some(f), Some((last, state))) = (file.as_deref_mut(), unwritten.take()) {
+                f.write_increment(&state, &last, &sim.stats)?;
             }
             let at = (report.increment, report.stage);
             return Ok(RunEnd::Failed(failure(sim, cause, at)));

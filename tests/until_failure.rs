@@ -7,10 +7,12 @@
 mod common;
 
 use grainstat::geometry::WallControl;
-use grainstat::run::{run_to_end, FailureCause, RunEnd};
+use grainstat::output::{read_state, ResultFile};
+use grainstat::run::{self, run_to_end, FailureCause, RunEnd};
 use grainstat::scene::{build_grains, parse_scene, Scene};
 use grainstat::simulation::Simulation;
 use grainstat::solver::SolverConfig;
+use grainstat::state::State;
 use grainstat::{samples, Error, NumericError};
 use std::path::Path;
 
@@ -134,4 +136,49 @@ fn a_bond_cascade_that_drops_the_load_ends_the_test_there() {
     let broken = &sim.state.contacts.broken_bonds;
     let in_it = broken.iter().filter(|b| b.increment == failure.increment);
     assert!(in_it.count() > 10, "{failure}");
+}
+
+/// A run that writes every fifth increment and fails leaves its last complete increment on
+/// file as it was computed, though the failing increment committed the halves of its step
+/// that converged: the small cemented annulus under a ring membrane raised in 20-MPa steps
+/// fails in increment 12 (measured: at 236 MPa, the halves bracketing it), and increment 11,
+/// not a write point, is written when the run ends, as it was, not as the halves left it.
+#[test]
+fn the_last_complete_increment_is_written_as_it_was_computed() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut scene = samples::cemented_annulus(3.0, 8.0, 20);
+    let stage = &mut scene.stages[0];
+    stage.stress.insert("outer".into(), 4.01e8);
+    stage.until_failure = true;
+    stage.breakouts = true;
+    let grains = build_grains(&scene.grains, Path::new("."), "annulus").unwrap();
+    let mut sim = Simulation::new(&scene, grains, SolverConfig::default(), "annulus").unwrap();
+    let path = dir.path().join("annulus.h5");
+    let mut file = ResultFile::create(&path, &run::header(&sim, "", "")).unwrap();
+    file.write_increment(&sim.state, &run::initial_report(&sim), &sim.stats)
+        .unwrap();
+    let mut computed: Vec<State> = Vec::new();
+    let end = run_to_end(&mut sim, Some(&mut file), 5, |sim, _| {
+        computed.push(sim.state.clone())
+    });
+    let failure = match end {
+        Ok(RunEnd::Failed(failure)) => failure,
+        other => panic!("expected the annulus to fail, got {other:?}"),
+    };
+    drop(file);
+    let last = failure.last_increment;
+    assert!(last % 5 != 0, "increment {last} is a write point");
+    assert_ne!(
+        sim.state,
+        computed[last - 1],
+        "the failing increment committed no half"
+    );
+    let (_, written) = read_state(&path, last).unwrap();
+    // The friction's lag and the energy of the last evaluation are the increment's own,
+    // taken afresh in the next: not on file.
+    let mut expected = computed[last - 1].clone();
+    for c in &mut expected.contacts.contacts {
+        (c.lag, c.energy) = (Default::default(), 0.0);
+    }
+    assert_eq!(written, expected);
 }
