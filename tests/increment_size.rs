@@ -3,27 +3,21 @@
 //! by at most 0.5%, so the load a test fails at is bracketed, not read off the grid of its
 //! increments, and a test's peak is read where the halves found it.
 
+mod common;
+
 use grainstat::estimate::{estimate, Peak};
 use grainstat::output::curves::Curves;
 use grainstat::output::{read_history, read_state, ResultFile};
 use grainstat::run::{self, run_to_end, RunEnd};
-use grainstat::samples::cemented_annulus;
 use grainstat::scene::{build_grains, parse_scene};
 use grainstat::simulation::Simulation;
 use grainstat::solver::SolverConfig;
 use std::path::Path;
 
-/// The small cemented annulus (three to eight grain diameters from the borehole's centre,
-/// 200 grains) under a ring membrane raised from 10 bar to 401 MPa in `steps` equal steps,
-/// until it fails: the highest pressure it carried in equilibrium.
+/// The small cemented annulus raised in `steps` equal steps until it fails
+/// ([`common::annulus_to_failure`]): the highest pressure it carried in equilibrium.
 fn failure_pressure(steps: usize) -> f64 {
-    let mut scene = cemented_annulus(3.0, 8.0, steps);
-    let stage = &mut scene.stages[0];
-    stage.stress.insert("outer".into(), 4.01e8);
-    stage.until_failure = true;
-    stage.breakouts = true;
-    let grains = build_grains(&scene.grains, Path::new("."), "annulus").unwrap();
-    let mut sim = Simulation::new(&scene, grains, SolverConfig::default(), "annulus").unwrap();
+    let mut sim = common::annulus_to_failure(steps);
     let failure = match run_to_end(&mut sim, None, 1, |_, _| {}) {
         Ok(RunEnd::Failed(failure)) => failure,
         other => panic!("{steps} steps: expected the annulus to fail, got {other:?}"),

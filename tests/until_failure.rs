@@ -146,13 +146,7 @@ fn a_bond_cascade_that_drops_the_load_ends_the_test_there() {
 #[test]
 fn the_last_complete_increment_is_written_as_it_was_computed() {
     let dir = tempfile::tempdir().unwrap();
-    let mut scene = samples::cemented_annulus(3.0, 8.0, 20);
-    let stage = &mut scene.stages[0];
-    stage.stress.insert("outer".into(), 4.01e8);
-    stage.until_failure = true;
-    stage.breakouts = true;
-    let grains = build_grains(&scene.grains, Path::new("."), "annulus").unwrap();
-    let mut sim = Simulation::new(&scene, grains, SolverConfig::default(), "annulus").unwrap();
+    let mut sim = common::annulus_to_failure(20);
     let path = dir.path().join("annulus.h5");
     let mut file = ResultFile::create(&path, &run::header(&sim, "", "")).unwrap();
     file.write_increment(&sim.state, &run::initial_report(&sim), &sim.stats)

@@ -1,13 +1,15 @@
 //! What several test files share: running the `grainstat` binary, reading its errors, the
-//! sand of table 1 and the sandstone of table 8, and samples of it prepared in walls or freed under a membrane.
+//! sand of table 1 and the sandstone of table 8, and samples of it prepared in walls or freed under a membrane,
+//! and the small cemented annulus loaded until it fails.
 
 #![allow(dead_code)] // each test file uses its own part
 
 use grainstat::geometry::{Membrane, MembraneShape};
 use grainstat::sample::prepare::{prepare, PrepareSpec, Prepared, RegionShape};
 use grainstat::sample::{SizeDistribution, SizeKind};
-use grainstat::scene::{CohesionRadius, LawKind};
-use grainstat::simulation::MaterialModel;
+use grainstat::samples::cemented_annulus;
+use grainstat::scene::{build_grains, CohesionRadius, LawKind};
+use grainstat::simulation::{MaterialModel, Simulation};
 use grainstat::solver::SolverConfig;
 use grainstat::state::State;
 use std::path::{Path, PathBuf};
@@ -187,3 +189,16 @@ length = 2e-4
 increments = 1
 stress = { top = 1e5 }
 "#;
+
+/// The small cemented annulus (three to eight grain diameters from the borehole's centre,
+/// 200 grains) under a ring membrane raised from 10 bar to 401 MPa in `steps` equal steps,
+/// loaded until it fails, clusters breaking out taken out.
+pub fn annulus_to_failure(steps: usize) -> Simulation {
+    let mut scene = cemented_annulus(3.0, 8.0, steps);
+    let stage = &mut scene.stages[0];
+    stage.stress.insert("outer".into(), 4.01e8);
+    stage.until_failure = true;
+    stage.breakouts = true;
+    let grains = build_grains(&scene.grains, Path::new("."), "annulus").unwrap();
+    Simulation::new(&scene, grains, SolverConfig::default(), "annulus").unwrap()
+}
