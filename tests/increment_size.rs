@@ -9,7 +9,7 @@ use grainstat::estimate::{estimate, Peak};
 use grainstat::output::curves::Curves;
 use grainstat::output::{read_history, read_state, ResultFile};
 use grainstat::run::{self, run_to_end, RunEnd};
-use grainstat::scene::{build_grains, parse_scene};
+use grainstat::scene::build_grains;
 use grainstat::simulation::Simulation;
 use grainstat::solver::SolverConfig;
 use std::path::Path;
@@ -52,12 +52,11 @@ fn the_cylinder_fails_at_the_same_pressure_when_the_step_is_halved() {
 /// stage as `grainstat plot` estimates it.
 fn crystal_peak(steps: usize) -> Peak {
     let dir = tempfile::tempdir().unwrap();
-    let text = CRYSTAL_FAILURE.replace("STEPS", &steps.to_string());
-    let scene = parse_scene(&text, "crystal").unwrap();
+    let scene = common::crystal_to_failure(steps, true);
     let grains = build_grains(&scene.grains, Path::new("."), "crystal").unwrap();
     let mut sim = Simulation::new(&scene, grains, SolverConfig::default(), "crystal").unwrap();
     let path = dir.path().join("crystal.h5");
-    let mut file = ResultFile::create(&path, &run::header(&sim, &text, "")).unwrap();
+    let mut file = ResultFile::create(&path, &run::header(&sim, "", "")).unwrap();
     file.write_increment(&sim.state, &run::initial_report(&sim), &sim.stats)
         .unwrap();
     match run_to_end(&mut sim, Some(&mut file), 1, |_, _| {}) {
@@ -85,51 +84,3 @@ fn the_peak_of_a_brittle_crystal_does_not_depend_on_the_increment_size() {
     let (a, b) = (coarse.axial_stress, fine.axial_stress);
     assert!((a / b - 1.0).abs() < 0.02, "{a:e} against {b:e} Pa");
 }
-
-const CRYSTAL_FAILURE: &str = r#"
-name = "crystal-failure"
-[material]
-law = "linear"
-normal_stiffness = 1e6
-poisson = 0.16
-friction = 0.6
-cohesion = 1e8
-bonded = true
-[grains.crystal]
-rows = 21
-columns = 8
-radius = 1e-4
-short_first = true
-[[walls]]
-name = "bottom"
-point = [0.0, 0.0]
-normal = [0.0, 1.0]
-length = 1.4e-3
-[[walls]]
-name = "right"
-point = [1.6e-3, 0.0]
-normal = [-1.0, 0.0]
-control = "stress"
-length = 3.6373066958946426e-3
-[[walls]]
-name = "top"
-point = [0.0, 3.664101615137755e-3]
-normal = [0.0, -1.0]
-control = "stress"
-length = 1.4e-3
-[[walls]]
-name = "left"
-point = [0.0, 0.0]
-normal = [1.0, 0.0]
-length = 3.6373066958946426e-3
-[[stages]]
-name = "isotropic"
-increments = 5
-stress = { top = 1e6, right = 1e6 }
-[[stages]]
-name = "biaxial"
-increments = STEPS
-control = { top = "displacement" }
-displacement = { top = 2.931281292110204e-4 }
-until_failure = true
-"#;

@@ -6,7 +6,6 @@
 
 mod common;
 
-use grainstat::geometry::WallControl;
 use grainstat::output::{read_state, ResultFile};
 use grainstat::run::{self, run_to_end, FailureCause, RunEnd};
 use grainstat::scene::{build_grains, parse_scene, Scene};
@@ -100,9 +99,9 @@ fn an_increment_the_solver_gives_up_on_is_an_error_in_any_stage() {
     }
 }
 
-/// The cemented crystal of 21 rows of 8 (`samples::crystal_biaxial`) pushed down under
-/// displacement control until it fails, watching for its top's force to fall below
-/// `failure_drop` of its peak. Past the peak its bonds break in a cascade at one wall
+/// The cemented crystal of 21 rows of 8 with its long rows at the bottom and top
+/// (`common::crystal_to_failure`) pushed down under displacement control until it fails,
+/// watching for its top's force to fall below `failure_drop` of its peak. Past the peak its bonds break in a cascade at one wall
 /// displacement, through which the top's force falls gradually (measured: to 0.77 of its
 /// peak 38 bonds in); followed on, the cascade leaves rubble in which the solver gives up
 /// (measured: "did not converge" after 14 halvings, as it still does with
@@ -110,17 +109,8 @@ fn an_increment_the_solver_gives_up_on_is_an_error_in_any_stage() {
 /// the cascade's first equilibrium past the drop, and the test ends there.
 #[test]
 fn a_bond_cascade_that_drops_the_load_ends_the_test_there() {
-    let mut scene = samples::crystal_biaxial(21, 8, 1e6, 1e6);
-    let stage = &mut scene.stages[1];
-    stage.increments = 20;
-    stage.stress.clear();
-    stage
-        .control
-        .insert("top".into(), WallControl::Displacement);
-    stage
-        .displacement
-        .insert("top".into(), 2.931281292110204e-4);
-    stage.failure_drop = Some(0.8);
+    let mut scene = common::crystal_to_failure(20, false);
+    scene.stages[1].failure_drop = Some(0.8);
     let (end, sim) = run(scene, SolverConfig::default(), true);
     let failure = match end {
         Ok(RunEnd::Failed(failure)) => failure,

@@ -146,10 +146,9 @@ fn turning_push(k: &Kinematics) -> [f64; 6] {
 /// left as it was without a tangent).
 fn reduce(f: &[f64; 6], kl: Option<&[[f64; 6]; 6]>, map: &PairMap, out: &mut LocalBlock) {
     out.force = reduce_force(f, map);
-    let (Some(kl), Some(feeds)) = (kl, &map.feeds) else {
-        if let Some(kl) = kl {
-            out.stiffness = *kl;
-        }
+    let Some(kl) = kl else { return };
+    let Some(feeds) = &map.feeds else {
+        out.stiffness = *kl;
         return;
     };
     out.stiffness = [[0.0; 6]; 6];

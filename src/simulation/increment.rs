@@ -302,8 +302,9 @@ impl Simulation {
     /// the most overloaded one broken and the equilibrium found anew from there: a cascade
     /// at the step's load. Where the solver gives up on the cascade after it has taken a
     /// wall's force below its [`Simulation::drop_floor`] (the stage's `failure_drop`), the
-    /// first equilibrium that did is the step's: the brittle failure is established there,
-    /// and the rubble the cascade goes on to leave need not be solved for. Nothing (and nothing broken) where the step is `wide` and its
+    /// first equilibrium that did is the step's, bonds past their strength and all: the
+    /// brittle failure is established there, and the rubble the cascade goes on to leave
+    /// need not be solved for. Nothing (and nothing broken) where the step is `wide` and its
     /// first equilibrium has a bond past its strength: the bond is broken at the load that
     /// breaks it, found within [`BRACKET`], not at the end of a step past it, so that
     /// failure loads do not depend on the increment size (method note, step 5).
@@ -334,17 +335,16 @@ impl Simulation {
         let mut dropped: Option<Dropped> = None;
         while self.break_most_overloaded_bond() {
             report.bonds_broken += 1;
-            match self.minimise(step, &mut u, report) {
-                Ok(()) => {}
-                Err(NumericError::NotConverged { .. }) if dropped.is_some() => {
-                    let Some(d) = dropped else { unreachable!() };
+            match (self.minimise(step, &mut u, report), dropped.take()) {
+                (Ok(()), kept) => dropped = kept,
+                (Err(NumericError::NotConverged { .. }), Some(d)) => {
                     (self.state.contacts, self.energy) = (d.contacts, d.energy);
                     (report.bonds_broken, report.residual) = (d.bonds_broken, d.residual);
                     self.last_residuals = d.residuals;
                     self.renew_lists(step, &d.u)?;
                     return Ok(Some(d.u));
                 }
-                Err(e) => return Err(e),
+                (Err(e), _) => return Err(e),
             }
             if dropped.is_none() && self.load_dropped(step, &u) {
                 dropped = Some(Dropped {

@@ -59,8 +59,9 @@ pub struct Simulation {
     pub peak_within: Option<PeakState>,
     /// Each wall's force below which the load has dropped in this stage: its `failure_drop`
     /// times the wall's peak so far, set by the run before each increment (zero, or empty,
-    /// where none is watched). A bond cascade that takes a wall's force below it is the
-    /// sample's brittle failure at the cascade's load, and stops there.
+    /// where none is watched). A bond cascade's first equilibrium below it is kept, and is
+    /// the step's where the solver gives up on the cascade after it: the sample's brittle
+    /// failure at the cascade's load.
     pub drop_floor: Vec<f64>,
     law: Box<dyn ContactLaw>,
     r_mean: f64,

@@ -1,14 +1,15 @@
 //! What several test files share: running the `grainstat` binary, reading its errors, the
 //! sand of table 1 and the sandstone of table 8, and samples of it prepared in walls or freed under a membrane,
-//! and the small cemented annulus loaded until it fails.
+//! and the small cemented annulus and crystal loaded until they fail.
 
 #![allow(dead_code)] // each test file uses its own part
 
+use grainstat::geometry::WallControl;
 use grainstat::geometry::{Membrane, MembraneShape};
 use grainstat::sample::prepare::{prepare, PrepareSpec, Prepared, RegionShape};
 use grainstat::sample::{SizeDistribution, SizeKind};
-use grainstat::samples::cemented_annulus;
-use grainstat::scene::{build_grains, CohesionRadius, LawKind};
+use grainstat::samples::{cemented_annulus, crystal_biaxial};
+use grainstat::scene::{build_grains, CohesionRadius, LawKind, Scene};
 use grainstat::simulation::{MaterialModel, Simulation};
 use grainstat::solver::SolverConfig;
 use grainstat::state::State;
@@ -201,4 +202,36 @@ pub fn annulus_to_failure(steps: usize) -> Simulation {
     stage.breakouts = true;
     let grains = build_grains(&scene.grains, Path::new("."), "annulus").unwrap();
     Simulation::new(&scene, grains, SolverConfig::default(), "annulus").unwrap()
+}
+
+/// The cemented crystal of 21 rows of 8 (`samples::crystal_biaxial`), isotropic at 10 bar in
+/// five increments, then pushed down by 8% of its height under displacement control in
+/// `steps` equal steps until it fails. With `short_first` its bottom and top rows are the
+/// short ones (164 grains, the bottom and top walls 7 diameters long), else the long ones
+/// (168 grains).
+pub fn crystal_to_failure(steps: usize, short_first: bool) -> Scene {
+    let mut scene = crystal_biaxial(21, 8, 1e6, 1e6);
+    scene.name = "crystal-failure".into();
+    if short_first {
+        let crystal = scene.grains.crystal.as_mut().expect("a crystal");
+        crystal.short_first = true;
+        let short_row = 2.0 * crystal.radius * (crystal.columns - 1) as f64;
+        for wall in scene.walls.iter_mut() {
+            if wall.name == "bottom" || wall.name == "top" {
+                wall.length = Some(short_row);
+            }
+        }
+    }
+    scene.stages[0].increments = 5;
+    let stage = &mut scene.stages[1];
+    stage.increments = steps;
+    stage.stress.clear();
+    stage
+        .control
+        .insert("top".into(), WallControl::Displacement);
+    stage
+        .displacement
+        .insert("top".into(), 2.931281292110204e-4);
+    stage.until_failure = true;
+    scene
 }
