@@ -188,6 +188,7 @@ pub fn run_to_end(
                             membrane_pressure: state.membranes.iter().map(|m| m.pressure).collect(),
                             wall_stress: state.walls.walls.iter().map(|w| w.stress).collect(),
                             peak: sim.peak_within.clone(),
+                            breakouts: state.breakouts.clone(),
                         })?;
                     }
                 }

@@ -3,11 +3,13 @@
 //! resumed after it repeats the uninterrupted one bit for bit; the cylinder report, the
 //! pictures and `grainstat info` show it.
 
+mod common;
+
 use grainstat::contact::BreakMode;
 use grainstat::estimate::{cylinder_failure, CylinderBreakout};
 use grainstat::geometry::Side;
 use grainstat::output::plot::plot;
-use grainstat::output::{info, read_state, ResultFile};
+use grainstat::output::{info, read_mechanism, read_state, ResultFile};
 use grainstat::run;
 use grainstat::samples::cemented_annulus;
 use grainstat::scene::build_grains;
@@ -195,4 +197,49 @@ fn a_run_resumed_after_a_breakout_repeats_the_uninterrupted_one_and_reports_it()
     let text = info(&whole).unwrap();
     let line = format!("breakouts          1: increment 3 ({n} grains");
     assert!(text.contains(&line), "no {line:?} in:\n{text}");
+}
+
+/// A cluster that breaks out in the increment that then fails as a whole is on file with
+/// the failure, though that increment is not: the small cemented annulus raised in 20-MPa
+/// steps breaks a cluster of 4 grains out of its borehole in increment 12, at the 236 MPa
+/// the halves of that increment carried last, then fails as a whole (measured). The cylinder
+/// report and the pictures show the breakout.
+#[test]
+fn a_breakout_in_the_increment_that_fails_is_on_file_and_reported() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut sim = common::annulus_to_failure(20);
+    let path = dir.path().join("annulus.h5");
+    let scene_text = toml::to_string(&common::annulus_to_failure_scene(20)).unwrap();
+    let mut file = ResultFile::create(&path, &run::header(&sim, &scene_text, "")).unwrap();
+    file.write_increment(&sim.state, &run::initial_report(&sim), &sim.stats)
+        .unwrap();
+    let failure = match run::run_to_end(&mut sim, Some(&mut file), 1, |_, _| {}) {
+        Ok(run::RunEnd::Failed(failure)) => failure,
+        other => panic!("expected the annulus to fail, got {other:?}"),
+    };
+    drop(file);
+    let last = failure.last_increment;
+    let (_, written) = read_state(&path, last).unwrap();
+    assert!(written.breakouts.is_empty(), "{:?}", written.breakouts);
+    let mechanism = read_mechanism(&path).unwrap().expect("the failure on file");
+    assert_eq!(mechanism.increment, last + 1);
+    let [breakout] = &mechanism.breakouts[..] else {
+        panic!("expected one breakout, got {:?}", mechanism.breakouts);
+    };
+    assert_eq!(breakout.increment, last + 1);
+    assert!(!breakout.grains.iter().any(|g| mechanism.grains.contains(g)));
+    // At the highest pressure the failing increment's halves carried in equilibrium.
+    let carried = failure.carried.iter().find(|(name, _)| name == "outer");
+    let carried = carried.expect("the membrane's pressure").1;
+    assert!(carried > written.membranes[0].pressure);
+    assert_eq!(breakout.pressure, [carried]);
+
+    let report = cylinder_failure(&path).unwrap().expect("a cylinder test");
+    assert_eq!(report.first_breakout(), Some(carried));
+    assert_eq!(report.functional_failure(), Some(carried));
+    assert_eq!(report.mechanism.map(|m| m.0), Some(mechanism.grains.len()));
+    let plots = dir.path().join("plots");
+    let written = plot(&path, Some(&plots), None).unwrap();
+    let picture = plots.join(format!("breakout-1-{last:08}.png"));
+    assert!(written.contains(&picture), "{picture:?} not written");
 }

@@ -17,6 +17,7 @@ use crate::geometry::{GrainSet, MembraneShape, Side};
 use crate::measure::ring_stresses;
 use crate::output::{read_increments, read_mechanism, read_state};
 use crate::scene::{parse_scene, LawKind};
+use crate::state::Breakout;
 use crate::Error;
 
 /// Share of the cylinder's area that is the borehole region.
@@ -54,6 +55,18 @@ pub struct CylinderBreakout {
     pub grains: usize,
     /// Bonds between it and the sample that broke as it was taken out.
     pub bonds_broken: usize,
+}
+
+impl CylinderBreakout {
+    /// `breakout`, its pressure that of membrane `ring`.
+    fn of(breakout: &Breakout, ring: usize) -> Self {
+        CylinderBreakout {
+            increment: breakout.increment,
+            pressure: breakout.pressure[ring],
+            grains: breakout.grains.len(),
+            bonds_broken: breakout.bonds_broken,
+        }
+    }
 }
 
 /// What eqs. 34-37 predict for the cylinder.
@@ -428,12 +441,7 @@ pub fn cylinder_failure(result: &Path) -> Result<Option<CylinderFailure>, Error>
         let (_, state) = read_state(result, k)?;
         let broken = &state.contacts.broken_bonds;
         breakouts = (state.breakouts.iter())
-            .map(|b| CylinderBreakout {
-                increment: b.increment,
-                pressure: b.pressure[ring],
-                grains: b.grains.len(),
-                bonds_broken: b.bonds_broken,
-            })
+            .map(|b| CylinderBreakout::of(b, ring))
             .collect();
         rows.push(CylinderRow {
             increment: k,
@@ -488,9 +496,17 @@ pub fn cylinder_failure(result: &Path) -> Result<Option<CylinderFailure>, Error>
             predict_cylinder(a, b, d, cohesion, (1.0f64 / 3.0).asin())
         });
     let last = increments.last().copied();
-    let mechanism = read_mechanism(result)?
-        .filter(|m| Some(m.increment) == last.map(|k| k + 1))
-        .and_then(|m| Some((m.grains.len(), *m.membrane_pressure.get(ring)?)));
+    let failure = read_mechanism(result)?.filter(|m| Some(m.increment) == last.map(|k| k + 1));
+    // Clusters that broke out in the increment that failed after the last one written.
+    if let Some(m) = failure
+        .as_ref()
+        .filter(|m| m.breakouts.len() > breakouts.len())
+    {
+        breakouts = (m.breakouts.iter())
+            .map(|b| CylinderBreakout::of(b, ring))
+            .collect();
+    }
+    let mechanism = failure.and_then(|m| Some((m.grains.len(), *m.membrane_pressure.get(ring)?)));
     Ok(Some(CylinderFailure {
         radii: [a, b],
         region_radius,

@@ -28,7 +28,7 @@ mod header;
 mod history;
 mod info;
 
-use group::{per_wall, read_group_state, write_group_state};
+use group::{per_wall, read_breakouts, read_group_state, write_breakouts, write_group_state};
 use header::{read_header, read_regions, write_header};
 pub(crate) use header::{read_walls, write_walls};
 use history::{
@@ -730,6 +730,9 @@ pub struct Mechanism {
     /// deviator: a displacement-controlled test's peak, where its last half step before the
     /// failure holds it.
     pub peak: Option<PeakState>,
+    /// Every breakout up to the failure: those of the failing increment, which is not on
+    /// file, after those of the increments before it.
+    pub breakouts: Vec<Breakout>,
 }
 
 fn write_mechanism_group(file: &File, m: &Mechanism) -> R<()> {
@@ -755,6 +758,8 @@ fn write_mechanism_group(file: &File, m: &Mechanism) -> R<()> {
         ArrayView1::from(&m.membrane_pressure),
     )?;
     put_plain(&g, "wall_stress", ArrayView1::from(&m.wall_stress))?;
+    let (membranes, walls) = (m.membrane_pressure.len(), m.wall_stress.len());
+    write_breakouts(&g, &m.breakouts, membranes, walls)?;
     if let Some(peak) = &m.peak {
         let stress: Vec<f64> = peak.macro_stress.iter().flatten().copied().collect();
         put_plain(
@@ -785,14 +790,20 @@ fn read_mechanism_group(file: &File) -> R<Option<Mechanism>> {
             _ => Err(Fail(format!("failure/grains names grain {i}"))),
         })
         .collect::<R<Vec<usize>>>()?;
+    let membrane_pressure = read_vec::<f64>(&g, "membrane_pressure", None)?;
+    let wall_stress = read_vec::<f64>(&g, "wall_stress", None)?;
+    let mut taken_out = vec![false; position.len()];
+    let (membranes, walls) = (membrane_pressure.len(), wall_stress.len());
+    let breakouts = read_breakouts(&g, &mut taken_out, membranes, walls)?;
     Ok(Some(Mechanism {
         increment: get_count(&g, "increment")?,
         description: get_str_attr(&g, "description")?,
         grains,
         position,
         displacement,
-        membrane_pressure: read_vec::<f64>(&g, "membrane_pressure", None)?,
-        wall_stress: read_vec::<f64>(&g, "wall_stress", None)?,
+        membrane_pressure,
+        wall_stress,
+        breakouts,
         peak: match g.link_exists("peak_macro_stress") {
             true => {
                 let [xx, xy, yx, yy] =

@@ -13,13 +13,12 @@ use crate::NumericError;
 impl Simulation {
     /// Take `grains` out of the sample, and record it as a breakout in the state.
     ///
-    /// Meant for the increment solver once it finds that an increment has no equilibrium
-    /// near because some grains are carried on and on (a cluster breaking out of the sample):
-    /// with the committed state in place (the failed solve restored it), it takes those
-    /// grains out and solves the increment again without them. Called between increments it
-    /// does the same for the next one. The breakout belongs to the increment being solved
-    /// (the committed one plus one), and records the loads of the committed state: the last
-    /// the sample carried in equilibrium with the cluster in it.
+    /// The increment solver takes a cluster out where its step finds no equilibrium near
+    /// because the cluster is carried on and on (`remove_cluster`, then it goes
+    /// on from the step's last equilibrium); this takes one out of the committed state, as
+    /// between increments, for the next one to go on without it. The breakout belongs to the
+    /// increment being solved (the committed one plus one), and records the loads of the
+    /// committed state: the last the sample carried in equilibrium with the cluster in it.
     ///
     /// The grains' contacts go: an intact bond with a grain left in the sample breaks (in
     /// tension, recorded in `broken_bonds` and counted in the breakout's `bonds_broken`,
@@ -37,6 +36,15 @@ impl Simulation {
     /// If `grains` is empty, or names a grain that does not exist or is already taken out:
     /// the caller names grains of the sample.
     pub fn take_out(&mut self, grains: &[usize]) -> Result<Breakout, NumericError> {
+        let breakout = self.remove_cluster(grains);
+        self.rebuild_workspace()?;
+        Ok(breakout)
+    }
+
+    /// Take `grains` out of the state and record the breakout, as [`Simulation::take_out`]
+    /// does, leaving the unknowns, friends lists and pattern to the caller: within a step
+    /// they are made anew around its iterate, not the committed state.
+    pub(super) fn remove_cluster(&mut self, grains: &[usize]) -> Breakout {
         let n = self.state.grains.len();
         let mut cluster = grains.to_vec();
         cluster.sort_unstable();
@@ -93,8 +101,7 @@ impl Simulation {
                 .collect(),
         };
         self.state.breakouts.push(breakout.clone());
-        self.rebuild_workspace()?;
-        Ok(breakout)
+        breakout
     }
 
     /// The unknowns, membrane carriers and chains, anchors, friends lists and pattern of the

@@ -4,7 +4,9 @@
 //! lists made anew wherever a step reaches their edge, bonds broken one at a time with the
 //! grains settled anew after each, then the commit.
 
-use super::{friends_around, EnergyBalance, LoadStep, Simulation, CHAIN_CHANGES, REACH_REBUILD};
+use super::{
+    anchors, friends_around, EnergyBalance, LoadStep, Simulation, CHAIN_CHANGES, REACH_REBUILD,
+};
 use crate::contact::{kinematics, BrokenBond, Configuration, Contact, ContactSet, Lag};
 use crate::solver::minimise::{self, MinimiseSettings, Potential, SystemMatrix};
 use crate::solver::stats::secs;
@@ -110,14 +112,6 @@ impl Simulation {
             NumericError::NoEquilibrium { .. } => wide,
             _ => false,
         };
-        if let NumericError::NoEquilibrium { grains, .. } = &error {
-            if !halve && self.breaks_out(grains) {
-                // Bracketed: the cluster breaks out at this load. Out with it, and on.
-                let breakout = self.take_out(grains)?;
-                report.bonds_broken += breakout.bonds_broken;
-                return self.follow_path(step, part, report);
-            }
-        }
         if !halve {
             match &mut error {
                 NumericError::NotConverged { cuts, .. } => *cuts = part.depth,
@@ -258,6 +252,10 @@ impl Simulation {
     ) -> Result<Solved, NumericError> {
         let committed = self.state.contacts.clone();
         let energy = self.energy;
+        let (taken_out, breakouts) = (
+            self.state.grains.taken_out.clone(),
+            self.state.breakouts.len(),
+        );
         let made_before: Vec<_> = committed.contacts.iter().map(|c| c.pair).collect();
         let result = self.solve_with_breaks(step, share, wide, report);
         match result {
@@ -290,9 +288,20 @@ impl Simulation {
                 Ok(Solved::Committed)
             }
             Err(e) => {
+                // The clusters that broke out in the step stay out: their breakouts are
+                // established at its load, whatever else the step could not solve.
+                let clusters: Vec<Vec<usize>> = (self.state.breakouts.drain(breakouts..))
+                    .map(|b| b.grains)
+                    .collect();
+                self.state.grains.taken_out = taken_out;
                 self.state.contacts = committed;
                 self.energy = energy;
-                self.restore_friends()?;
+                if clusters.is_empty() {
+                    self.restore_friends()?;
+                }
+                for cluster in &clusters {
+                    self.take_out(cluster)?;
+                }
                 Err(e)
             }
         }
@@ -319,7 +328,13 @@ impl Simulation {
         self.start_newton()?;
         self.engage_pairs();
         let mut u = self.start_point(step, share)?;
-        self.minimise(step, &mut u, report)?;
+        // Where a minimisation that a cluster broke out of starts again: the step's start,
+        // then its last equilibrium.
+        let mut restart = u.clone();
+        // The cascade's first equilibrium that dropped the load, kept while the cascade goes
+        // on: where it cannot be followed to its end, the failure stands there.
+        let mut dropped: Option<Dropped> = None;
+        self.minimise_breaking_out(step, &mut u, &mut restart, wide, &mut dropped, report)?;
         if wide
             && self
                 .state
@@ -330,12 +345,12 @@ impl Simulation {
         {
             return Ok(None);
         }
-        // The cascade's first equilibrium that dropped the load, kept while the cascade goes
-        // on: where it cannot be followed to its end, the failure stands there.
-        let mut dropped: Option<Dropped> = None;
         while self.break_most_overloaded_bond() {
             report.bonds_broken += 1;
-            match (self.minimise(step, &mut u, report), dropped.take()) {
+            restart.copy_from_slice(&u);
+            let result =
+                self.minimise_breaking_out(step, &mut u, &mut restart, wide, &mut dropped, report);
+            match (result, dropped.take()) {
                 (Ok(()), kept) => dropped = kept,
                 (Err(NumericError::NotConverged { .. }), Some(d)) => {
                     (self.state.contacts, self.energy) = (d.contacts, d.energy);
@@ -358,6 +373,48 @@ impl Simulation {
             }
         }
         Ok(Some(u))
+    }
+
+    /// Minimise from `u` to equilibrium. Where no equilibrium near holds a cluster that breaks
+    /// out of the sample (thesis 4.4.2) in a step that is not `wide` (its load bracketed), the
+    /// cluster is taken out where it broke out and the minimisation starts again from
+    /// `restart`, the step's last equilibrium or its start, with the bonds broken so far left
+    /// broken: the breakout is one event of the step, and the step goes on past it. A
+    /// cascade's equilibrium kept in `dropped` had the cluster in it, and goes.
+    fn minimise_breaking_out(
+        &mut self,
+        step: &LoadStep,
+        u: &mut [f64],
+        restart: &mut [f64],
+        wide: bool,
+        dropped: &mut Option<Dropped>,
+        report: &mut IncrementReport,
+    ) -> Result<(), NumericError> {
+        loop {
+            match self.minimise(step, u, report) {
+                Err(NumericError::NoEquilibrium { grains, .. })
+                    if !wide && self.breaks_out(&grains) =>
+                {
+                    let breakout = self.remove_cluster(&grains);
+                    report.bonds_broken += breakout.bonds_broken;
+                    *dropped = None;
+                    let per = self.dofs.per_grain;
+                    for &g in &breakout.grains {
+                        restart[g * per..(g + 1) * per].fill(0.0);
+                        self.carriers[g] = false;
+                    }
+                    u.copy_from_slice(restart);
+                    self.dofs = super::dof_map(&self.state, self.material.fixed_rotations);
+                    let grains = &self.state.grains;
+                    if self.anchors.iter().any(|a| grains.taken_out[a.grain]) {
+                        self.anchors =
+                            anchors(grains, &self.state.walls, &self.state.contacts.contacts);
+                    }
+                    self.renew_lists(step, u)?;
+                }
+                result => return result,
+            }
+        }
     }
 
     /// Whether the equilibrium at `u` takes a wall's force below its [`Simulation::drop_floor`].

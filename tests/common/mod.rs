@@ -194,12 +194,18 @@ stress = { top = 1e5 }
 /// The small cemented annulus (three to eight grain diameters from the borehole's centre,
 /// 200 grains) under a ring membrane raised from 10 bar to 401 MPa in `steps` equal steps,
 /// loaded until it fails, clusters breaking out taken out.
-pub fn annulus_to_failure(steps: usize) -> Simulation {
+pub fn annulus_to_failure_scene(steps: usize) -> Scene {
     let mut scene = cemented_annulus(3.0, 8.0, steps);
     let stage = &mut scene.stages[0];
     stage.stress.insert("outer".into(), 4.01e8);
     stage.until_failure = true;
     stage.breakouts = true;
+    scene
+}
+
+/// The simulation of [`annulus_to_failure_scene`].
+pub fn annulus_to_failure(steps: usize) -> Simulation {
+    let scene = annulus_to_failure_scene(steps);
     let grains = build_grains(&scene.grains, Path::new("."), "annulus").unwrap();
     Simulation::new(&scene, grains, SolverConfig::default(), "annulus").unwrap()
 }

@@ -138,7 +138,12 @@ pub(super) fn write_group_state(g: &Group, state: &State, report: &IncrementRepo
         ArrayView2::from(&state.friends_wall_reference[..]),
     )?;
     put_plain(g, "last_step", ArrayView1::from(&state.last_step[..]))?;
-    write_breakouts(g, state)?;
+    write_breakouts(
+        g,
+        &state.breakouts,
+        state.membranes.len(),
+        state.walls.len(),
+    )?;
 
     let count = |v: usize| v as i64;
     set_attr(g, "increment", &count(state.increment))?;
@@ -263,7 +268,7 @@ pub(super) fn read_group_state(g: &Group, h: &RunHeader) -> R<State> {
         })
         .collect();
     let friends = g.group("friends")?;
-    let breakouts = read_breakouts(g, &mut grains, h.membranes.len(), nw)?;
+    let breakouts = read_breakouts(g, &mut grains.taken_out, h.membranes.len(), nw)?;
     Ok(State {
         increment: get_count(g, "increment")?,
         stage: get_count(g, "stage")?,
@@ -286,11 +291,16 @@ pub(super) fn read_group_state(g: &Group, h: &RunHeader) -> R<State> {
     })
 }
 
-/// The breakouts so far, as group `breakouts`: their increments, grain counts and bonds
-/// broken, their grains one breakout after another, and the loads carried.
-fn write_breakouts(g: &Group, state: &State) -> R<()> {
+/// The breakouts `list`, as group `breakouts`: their increments, grain counts and bonds
+/// broken, their grains one breakout after another, and the loads carried (`membranes` and
+/// `walls` wide).
+pub(super) fn write_breakouts(
+    g: &Group,
+    list: &[Breakout],
+    membranes: usize,
+    walls: usize,
+) -> R<()> {
     let group = g.create_group("breakouts")?;
-    let list = &state.breakouts;
     let column =
         |f: fn(&Breakout) -> usize| -> Array1<i64> { list.iter().map(|b| f(b) as i64).collect() };
     put_plain(&group, "increment", column(|b| b.increment).view())?;
@@ -304,19 +314,19 @@ fn write_breakouts(g: &Group, state: &State) -> R<()> {
         let values = list.iter().flat_map(row).collect();
         Ok(Array2::from_shape_vec((list.len(), width), values)?)
     };
-    let pressure = table(state.membranes.len(), &|b| b.pressure.clone())?;
+    let pressure = table(membranes, &|b| b.pressure.clone())?;
     put_plain(&group, "membrane_pressure", pressure.view())?;
-    let stress = table(state.walls.len(), &|b| {
+    let stress = table(walls, &|b| {
         b.stress.iter().map(|s| s.unwrap_or(f64::NAN)).collect()
     })?;
     put_plain(&group, "wall_stress", stress.view())
 }
 
-/// The breakouts of an increment group (none in files from before grains were taken out),
-/// their grains marked as taken out of `grains`; `membranes` and `walls` wide.
-fn read_breakouts(
+/// The breakouts of a group (none in files from before grains were taken out), their grains
+/// marked in `taken_out`; `membranes` and `walls` wide.
+pub(super) fn read_breakouts(
     g: &Group,
-    grains: &mut GrainSet,
+    taken_out: &mut [bool],
     membranes: usize,
     walls: usize,
 ) -> R<Vec<Breakout>> {
@@ -349,7 +359,7 @@ fn read_breakouts(
         let mut cluster = Vec::with_capacity(size);
         for &i in mine {
             let i = natural("grains", i)?;
-            match grains.taken_out.get_mut(i) {
+            match taken_out.get_mut(i) {
                 Some(out) if !*out => *out = true,
                 Some(_) => return Err(Fail(format!("grain {i} is taken out twice"))),
                 None => return Err(Fail(format!("breakouts/grains names grain {i}"))),

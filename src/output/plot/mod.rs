@@ -135,9 +135,33 @@ pub fn plot(
         let picture = SamplePicture::new(field, title, &state);
         written.extend(save(&picture, &dir, &format!("{name}-{tag}"))?);
     }
-    // Each cluster that broke out, against the sample as it is at the increment plotted.
-    for (k, breakout) in state.breakouts.iter().enumerate() {
-        let loads: Vec<String> = (breakout.carried(&state.membranes, &state.walls).iter())
+    // The failure that ended the run after the increment plotted, if it did.
+    let failure = read_mechanism(result)?.filter(|m| m.increment == increment + 1);
+    if let Some(mechanism) = &failure {
+        if mechanism.position.len() != state.grains.len() {
+            return Err(input_error(
+                result,
+                format!(
+                    "failure/position has {} rows for {} grains",
+                    mechanism.position.len(),
+                    state.grains.len()
+                ),
+            ));
+        }
+    }
+    // Each cluster that broke out, against the sample as it is at the increment plotted;
+    // those of a failing increment after it too.
+    let mut shown = state.clone();
+    if let Some(mechanism) = failure.as_ref() {
+        if mechanism.breakouts.len() > state.breakouts.len() {
+            for &g in mechanism.breakouts.iter().flat_map(|b| &b.grains) {
+                shown.grains.taken_out[g] = true;
+            }
+            shown.breakouts.clone_from(&mechanism.breakouts);
+        }
+    }
+    for (k, breakout) in shown.breakouts.iter().enumerate() {
+        let loads: Vec<String> = (breakout.carried(&shown.membranes, &shown.walls).iter())
             .map(|(name, v)| {
                 let unit = si_unit(v.abs(), "Pa");
                 format!("{name} {} {}", significant(v * unit.factor, 4), unit.unit)
@@ -151,27 +175,17 @@ pub fn plot(
             "{}: breakout {} of {}, {} grains{loads}; {at}",
             header.scene_name,
             k + 1,
-            state.breakouts.len(),
+            shown.breakouts.len(),
             breakout.grains.len()
         );
-        let picture = SamplePicture::new(Field::Breakout(k), title, &state);
+        let picture = SamplePicture::new(Field::Breakout(k), title, &shown);
         written.extend(save(&picture, &dir, &format!("breakout-{}-{tag}", k + 1))?);
     }
 
     // The mechanism of the failure that ended the run, after the last increment in
     // equilibrium: the grains as the descent that found no equilibrium near carried them.
-    if let Some(mechanism) = read_mechanism(result)?.filter(|m| m.increment == increment + 1) {
-        if mechanism.position.len() != state.grains.len() {
-            return Err(input_error(
-                result,
-                format!(
-                    "failure/position has {} rows for {} grains",
-                    mechanism.position.len(),
-                    state.grains.len()
-                ),
-            ));
-        }
-        let mut carried = state.clone();
+    if let Some(mechanism) = failure {
+        let mut carried = shown;
         carried.grains.position = mechanism.position;
         carried.grains.displacement = mechanism.displacement;
         let title = format!(
