@@ -8,7 +8,7 @@ use crate::scene::{build_grains, Scene};
 use crate::simulation::Simulation;
 use crate::solver::stats::secs;
 use crate::solver::SolverConfig;
-use crate::state::{IncrementReport, PeakState, State};
+use crate::state::{IncrementReport, PeakState};
 use crate::{Error, NumericError};
 use std::path::Path;
 use std::time::Instant;
@@ -155,9 +155,8 @@ pub fn run_to_end(
     every: usize,
     mut on_increment: impl FnMut(&Simulation, &IncrementReport),
 ) -> Result<RunEnd, Error> {
-    // The last increment not on file yet, with its state: an increment that fails after it
-    // leaves the simulation's state past it (the halves that converged are committed).
-    let mut unwritten: Option<(IncrementReport, State)> = None;
+    // The report of the last increment not on file yet.
+    let mut unwritten: Option<IncrementReport> = None;
     let mut peaks = match file.as_deref() {
         Some(f) => PeakForces::written(f.path(), sim.state.stage)?,
         None => PeakForces::default(),
@@ -172,9 +171,11 @@ pub fn run_to_end(
                 // Keep what was computed: the last converged state, if it is not on file yet
                 // (the summary goes with it), else the summary of the work spent.
                 if let Some(f) = file.as_deref_mut() {
-                    match unwritten.take() {
-                        Some((last, state)) => f.write_increment(&state, &last, &sim.stats)?,
-                        None => f.write_summary(&sim.stats)?,
+                    // Its state is the one the failing increment started from, which the
+                    // halves of it that converged have moved the simulation's past.
+                    match (unwritten.take(), &sim.failed_from) {
+                        (Some(last), Some(state)) => f.write_increment(state, &last, &sim.stats)?,
+                        _ => f.write_summary(&sim.stats)?,
                     }
                     // No equilibrium near: the mechanism, as the descent carried it.
                     if let NumericError::NoEquilibrium { grains, .. } = &err {
@@ -220,11 +221,11 @@ pub fn run_to_end(
             unwritten = None;
         } else {
             pending = Some(report.peak_or_end(&sim.state.walls));
-            unwritten = Some((report.clone(), sim.state.clone()));
+            unwritten = Some(report.clone());
         }
         if let Some(cause) = peaks.drop(sim, &report) {
-            if let (Some(f), Some((last, state))) = (file.as_deref_mut(), unwritten.take()) {
-                f.write_increment(&state, &last, &sim.stats)?;
+            if let (Some(f), Some(last)) = (file.as_deref_mut(), unwritten.take()) {
+                f.write_increment(&sim.state, &last, &sim.stats)?;
             }
             let at = (report.increment, report.stage);
             return Ok(RunEnd::Failed(failure(sim, cause, at)));

@@ -10,7 +10,7 @@ use super::{
 use crate::contact::{kinematics, BrokenBond, Configuration, Contact, ContactSet, Lag};
 use crate::solver::minimise::{self, MinimiseSettings, Potential, SystemMatrix};
 use crate::solver::stats::secs;
-use crate::state::{IncrementReport, PeakState};
+use crate::state::{IncrementReport, PeakState, State};
 use crate::NumericError;
 use std::sync::Arc;
 use std::time::Instant;
@@ -69,10 +69,12 @@ impl Simulation {
     /// most [`BRACKET`], which brackets the limit load: the halves commit as they converge, so
     /// the state is left at the highest load found in equilibrium. A step whose equilibrium
     /// has a bond past its strength is halved the same way, so the bond breaks within
-    /// [`BRACKET`] of the load that breaks it.
+    /// [`BRACKET`] of the load that breaks it. `start` is the state the increment started
+    /// from.
     pub(super) fn minimise_step(
         &mut self,
         step: &LoadStep,
+        start: &State,
         report: &mut IncrementReport,
     ) -> Result<(), NumericError> {
         let whole = Part {
@@ -81,11 +83,10 @@ impl Simulation {
             depth: 0,
             stalls: 0,
         };
-        let start = self.state.clone();
         let result = self.follow_path(step, whole, report);
         if let Err(NumericError::NotConverged { .. }) = result {
             // The solver gave up: the increment is not solved, whatever halves converged.
-            self.state = start;
+            self.state.clone_from(start);
             self.rebuild_workspace()?;
         }
         result

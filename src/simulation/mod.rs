@@ -57,6 +57,10 @@ pub struct Simulation {
     /// The part of the increment being solved (or of the last, where it found no equilibrium
     /// near) found in equilibrium with the highest macro deviator, short of its end.
     pub peak_within: Option<PeakState>,
+    /// Where the last increment failed, the state it started from: the last complete
+    /// increment's, which `state` may have moved past (the halves that converged are
+    /// committed). `None` after an increment that converged.
+    pub failed_from: Option<State>,
     /// Each wall's force below which the load has dropped in this stage: its `failure_drop`
     /// times the wall's peak so far, set by the run before each increment (zero, or empty,
     /// where none is watched). A bond cascade's first equilibrium below it is kept, and is
@@ -152,6 +156,7 @@ impl Simulation {
             last_residuals: Vec::new(),
             regions: Vec::new(),
             peak_within: None,
+            failed_from: None,
             drop_floor: Vec::new(),
             law,
             r_mean,
@@ -202,8 +207,21 @@ impl Simulation {
 
     /// One load increment, as the pipeline reads: apply the increment, then solve it (the
     /// minimisation of its potential, its load path followed in halves where it does not
-    /// converge; or relaxation), commit, measure.
+    /// converge; or relaxation), commit, measure. Where it fails, the state it started from
+    /// is kept in [`Simulation::failed_from`].
     pub fn run_increment(&mut self) -> Result<IncrementReport, NumericError> {
+        let start = self.state.clone();
+        self.failed_from = None;
+        let result = self.solve_increment(&start);
+        if result.is_err() {
+            self.failed_from = Some(start);
+        }
+        result
+    }
+
+    /// The increment from `committed`, the state it starts from (see
+    /// [`Simulation::run_increment`]).
+    fn solve_increment(&mut self, committed: &State) -> Result<IncrementReport, NumericError> {
         let mut report = IncrementReport {
             increment: self.state.increment + 1,
             stage: self.state.stage,
@@ -219,7 +237,7 @@ impl Simulation {
         self.peak_within = None;
         // Solve: the minimisation with bonds broken one at a time; or grain by grain.
         match self.config.strategy {
-            Strategy::Minimise => self.minimise_step(&step, &mut report)?,
+            Strategy::Minimise => self.minimise_step(&step, committed, &mut report)?,
             Strategy::Relaxation => self.relax_increment(&step, 0, &mut report)?,
         }
         let end = self.boundary_forces();

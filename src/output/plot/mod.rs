@@ -151,9 +151,10 @@ pub fn plot(
     }
     // Each cluster that broke out, against the sample as it is at the increment plotted;
     // those of a failing increment after it too.
-    let mut shown = state.clone();
+    let mut shown = std::borrow::Cow::Borrowed(&state);
     if let Some(mechanism) = failure.as_ref() {
         if mechanism.breakouts.len() > state.breakouts.len() {
+            let shown = shown.to_mut();
             for &g in mechanism.breakouts.iter().flat_map(|b| &b.grains) {
                 shown.grains.taken_out[g] = true;
             }
@@ -185,7 +186,7 @@ pub fn plot(
     // The mechanism of the failure that ended the run, after the last increment in
     // equilibrium: the grains as the descent that found no equilibrium near carried them.
     if let Some(mechanism) = failure {
-        let mut carried = shown;
+        let mut carried = shown.into_owned();
         carried.grains.position = mechanism.position;
         carried.grains.displacement = mechanism.displacement;
         let title = format!(
