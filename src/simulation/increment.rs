@@ -299,9 +299,11 @@ impl Simulation {
                 self.energy = energy;
                 if clusters.is_empty() {
                     self.restore_friends()?;
-                }
-                for cluster in &clusters {
-                    self.take_out(cluster)?;
+                } else {
+                    for cluster in &clusters {
+                        self.remove_cluster(cluster);
+                    }
+                    self.rebuild_workspace()?;
                 }
                 Err(e)
             }
