@@ -200,6 +200,19 @@ const INNER: f64 = 0.1;
 /// bond broken), and a lag held from an earlier iterate only drags the steps back towards it.
 const HOLD_BELOW: f64 = 1e-3;
 
+/// Iterations that may pass since the residual was last lowered below the lowest it reached
+/// since it last jumped ([`FRESH_START`]) before a semi-smooth step hands over to the lagged
+/// descent, until that has taken the residual a tenth below the lowest: near a cluster of
+/// grains whose contacts slide (a packing close to a mechanism) the consistent tangent's steps
+/// and the grains' own balances can cycle, each undoing the last, where the lagged descent
+/// moves the cluster on to where it holds. Meanwhile a refreeze that jumps does not call the
+/// semi-smooth steps back ([`LAG_JUMP`]).
+const CYCLE_STEPS: usize = 6;
+
+/// A residual this many times the lowest one counts as a new start (a contact made, a bond
+/// broken, a refreeze that moved the limits), from which the lowest is counted again.
+const FRESH_START: f64 = 10.0;
+
 /// Steps the lag is held for at most: a lagged problem whose limits let a cluster slide (the
 /// normal forces held where the true law would raise them, or a mechanism forming) has no
 /// minimum near, and its descent would crawl on without the true residual ever being looked
@@ -277,6 +290,10 @@ pub fn minimise(
     let mut semismooth_below = f64::INFINITY;
     // Where the last semi-smooth step that raised the residual at a closing pair started.
     let mut rise_from = f64::INFINITY;
+    // The lowest residual since the last new start and the iteration that reached it; whether
+    // the semi-smooth steps cycled and wait for the lagged descent to go a tenth below it.
+    let mut lowest = (rel, 0usize);
+    let mut cycled = false;
     let (mut consistent, mut gmres) = (Vec::new(), krylov::Gmres::default());
     // The grain last moved to its own equilibrium, with the states of its contacts there.
     let mut balanced: (usize, Vec<u8>) = (usize::MAX, Vec::new());
@@ -402,6 +419,11 @@ pub fn minimise(
                 true_merit = merit;
             }
             out.history.push(rel);
+            lowest = lowest_since_start(lowest, rel, out.iterations);
+            if out.iterations - lowest.1 >= CYCLE_STEPS {
+                (semismooth, cycled) = (false, true);
+                semismooth_below = RETRY_SHARE * lowest.0;
+            }
             if eq.needs_new_pattern() || (accepted && alpha == reach && reach < 1.0) {
                 out.at_reach = true;
             }
@@ -495,7 +517,7 @@ pub fn minimise(
         if frozen {
             stalls = lag_stalls(stalls, merit, true_merit);
             true_merit = merit;
-            if merit > LAG_JUMP * trial_merit {
+            if merit > LAG_JUMP * trial_merit && !cycled {
                 // The lag, not the model, is what stalls: semi-smooth steps are for that.
                 semismooth_below = f64::INFINITY;
             }
@@ -506,6 +528,8 @@ pub fn minimise(
         }
         semismooth = (rel < SEMISMOOTH_NEAR || (stalls >= LAG_STALLS && rel < SEMISMOOTH_BELOW))
             && rel < semismooth_below;
+        cycled &= !semismooth;
+        lowest = lowest_since_start(lowest, rel, out.iterations);
         out.history.push(rel);
         if eq.needs_new_pattern() || (alpha == reach && reach < 1.0) {
             out.at_reach = true;
@@ -555,6 +579,16 @@ fn refrozen(
 ) -> Result<(f64, (f64, usize, f64)), NumericError> {
     let energy = eq.evaluate(u, residual, Some(values), true)?;
     Ok((energy, eq.residual_norm(residual)))
+}
+
+/// The lowest residual since the last new start ([`FRESH_START`]) and the iteration that
+/// reached it, after iteration `iteration` left the residual at `rel`.
+fn lowest_since_start(lowest: (f64, usize), rel: f64, iteration: usize) -> (f64, usize) {
+    if rel < lowest.0 || rel > FRESH_START * lowest.0 {
+        (rel, iteration)
+    } else {
+        lowest
+    }
 }
 
 /// Refreezes in a row that did not halve the true residual (from `before` to `merit`): the
