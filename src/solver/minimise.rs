@@ -206,7 +206,8 @@ const HOLD_BELOW: f64 = 1e-3;
 /// grains whose contacts slide (a packing close to a mechanism) the consistent tangent's steps
 /// and the grains' own balances can cycle, each undoing the last, where the lagged descent
 /// moves the cluster on to where it holds. Meanwhile a refreeze that jumps does not call the
-/// semi-smooth steps back ([`LAG_JUMP`]).
+/// semi-smooth steps back ([`LAG_JUMP`]), unless the residual has gone [`FRESH_START`] times
+/// above that lowest: the descent then went elsewhere.
 const CYCLE_STEPS: usize = 6;
 
 /// A residual this many times the lowest one counts as a new start (a contact made, a bond
@@ -529,6 +530,12 @@ pub fn minimise(
         semismooth = (rel < SEMISMOOTH_NEAR || (stalls >= LAG_STALLS && rel < SEMISMOOTH_BELOW))
             && rel < semismooth_below;
         cycled &= !semismooth;
+        if cycled && rel > FRESH_START * lowest.0 {
+            // The lagged descent took the residual far from the cycle's: the cycle is behind
+            // it, and the semi-smooth steps may come back as before.
+            cycled = false;
+            semismooth_below = f64::INFINITY;
+        }
         lowest = lowest_since_start(lowest, rel, out.iterations);
         out.history.push(rel);
         if eq.needs_new_pattern() || (alpha == reach && reach < 1.0) {
