@@ -1,6 +1,6 @@
 //! GMRES, right-preconditioned by a factorisation of a nearby matrix: the minimisation's
 //! semi-smooth steps solve with the unsymmetric consistent tangent, preconditioned by the
-//! Cholesky of the symmetric Hessian made in the same iteration.
+//! last Cholesky of the symmetric Hessian made in the same minimisation.
 
 use faer::sparse::SymbolicSparseColMat;
 

@@ -17,7 +17,7 @@
 //! the [`LinearSolver`] contract.
 
 use super::krylov;
-use super::linear::LinearSolver;
+use super::linear::{LinearSolver, NotFactorizable};
 use super::stats::SolverStats;
 use crate::NumericError;
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
@@ -129,7 +129,7 @@ pub struct MinimiseSettings {
 pub struct MinimiseOutcome {
     /// Whether the tolerance was met.
     pub converged: bool,
-    /// Iterations made (factorisations of the Hessian).
+    /// Iterations made (steps, each with at most one factorisation of the Hessian).
     pub iterations: usize,
     /// Final relative residual.
     pub residual: f64,
@@ -298,6 +298,8 @@ pub fn minimise(
     let (mut consistent, mut gmres) = (Vec::new(), krylov::Gmres::default());
     // The grain last moved to its own equilibrium, with the states of its contacts there.
     let mut balanced: (usize, Vec<u8>) = (usize::MAX, Vec::new());
+    // Whether the linear solver holds a factor of a Hessian of this minimisation.
+    let mut factored = false;
     // Whether the residual is the law's own: the lag refrozen twice at this iterate.
     let mut confirmed = false;
     while !out.at_reach {
@@ -335,24 +337,33 @@ pub fn minimise(
         stats.counters.newton_iterations += 1;
 
         // Direction: the projected Hessian, regularised only where a row has no stiffness.
-        regularise(
-            eq,
-            values,
-            diagonal,
-            lambda.max(settings.lambda_min),
-            &mut shift,
-        );
-        let a = SparseColMatRef::new(symbolic.as_ref(), values);
-        if let Err(e) = linear.factorize_shifted(a, &shift, stats) {
-            if lambda >= 1e6 {
-                return Err(NumericError::Singular { detail: e.0 });
+        // A semi-smooth step needs its factor only as GMRES's preconditioner, and the factor
+        // of an earlier iterate of this minimisation serves there: near the answer the
+        // Hessian changes little from step to step.
+        let stale = semismooth && factored;
+        if !stale {
+            let a = SparseColMatRef::new(symbolic.as_ref(), values);
+            let made = factorize_hessian(
+                eq,
+                a,
+                diagonal,
+                lambda.max(settings.lambda_min),
+                &mut shift,
+                linear,
+                stats,
+            );
+            factored = made.is_ok();
+            if let Err(e) = made {
+                if lambda >= 1e6 {
+                    return Err(NumericError::Singular { detail: e.0 });
+                }
+                lambda = (10.0 * lambda).max(1e-6);
+                continue;
             }
-            lambda = (10.0 * lambda).max(1e-6);
-            continue;
         }
         if semismooth {
-            // The consistent tangent's Newton step by GMRES, preconditioned by the Cholesky
-            // just made, and a line search on the true residual.
+            // The consistent tangent's Newton step by GMRES, preconditioned by the last
+            // Cholesky of the Hessian, and a line search on the true residual.
             consistent.resize(values.len(), 0.0);
             eq.consistent_tangent(u, &mut residual, &mut consistent)?;
             (rel, worst, merit) = eq.residual_norm(&residual);
@@ -361,15 +372,35 @@ pub fn minimise(
             if rel <= settings.tolerance {
                 continue;
             }
-            du.fill(0.0);
-            let solved = gmres.solve(
-                &mut |v, out| krylov::multiply(symbolic, &consistent, v, out),
-                &mut |v| linear.solve_in_place(v, stats),
-                &residual,
-                &mut du,
-                KRYLOV_TOLERANCE,
-                KRYLOV_ITERATIONS,
-            );
+            let mut solve = |linear: &mut LinearSolver, du: &mut [f64], stats: &mut SolverStats| {
+                du.fill(0.0);
+                gmres.solve(
+                    &mut |v, out| krylov::multiply(symbolic, &consistent, v, out),
+                    &mut |v| linear.solve_in_place(v, stats),
+                    &residual,
+                    du,
+                    KRYLOV_TOLERANCE,
+                    KRYLOV_ITERATIONS,
+                )
+            };
+            let mut solved = solve(linear, &mut du, stats);
+            if solved.is_none() && stale {
+                // The earlier factor no longer serves: this iterate's Hessian may.
+                let a = SparseColMatRef::new(symbolic.as_ref(), values);
+                let made = factorize_hessian(
+                    eq,
+                    a,
+                    diagonal,
+                    lambda.max(settings.lambda_min),
+                    &mut shift,
+                    linear,
+                    stats,
+                );
+                factored = made.is_ok();
+                if factored {
+                    solved = solve(linear, &mut du, stats);
+                }
+            }
             if solved.is_none() {
                 // The Hessian is no preconditioner of the consistent tangent here: back to
                 // the lagged minimisation.
@@ -575,6 +606,21 @@ fn balance_worst(
         *balanced = (worst, Vec::new());
     }
     eq.balance_grain(u, residual, worst, &mut balanced.1)
+}
+
+/// Factorise the Hessian `a`, regularised (see [`regularise`]) with the Levenberg-Marquardt
+/// factor `lambda`; `shift` takes the regularisation.
+fn factorize_hessian(
+    eq: &dyn Potential,
+    a: SparseColMatRef<'_, usize, f64>,
+    diagonal: &[usize],
+    lambda: f64,
+    shift: &mut [f64],
+    linear: &mut LinearSolver,
+    stats: &mut SolverStats,
+) -> Result<(), NotFactorizable> {
+    regularise(eq, a.val(), diagonal, lambda, shift);
+    linear.factorize_shifted(a, shift, stats)
 }
 
 /// Evaluate at `u` on a lag refrozen there: the stored energy and the residual's norms.
