@@ -298,8 +298,7 @@ pub fn minimise(
     let (mut consistent, mut gmres) = (Vec::new(), krylov::Gmres::default());
     // The grain last moved to its own equilibrium, with the states of its contacts there.
     let mut balanced: (usize, Vec<u8>) = (usize::MAX, Vec::new());
-    // Whether the linear solver holds a factor of a Hessian of this minimisation that the
-    // next semi-smooth step may take as its preconditioner.
+    // Whether the linear solver holds a factor of a Hessian of this minimisation.
     let mut factored = false;
     // Whether the residual is the law's own: the lag refrozen twice at this iterate.
     let mut confirmed = false;
@@ -339,8 +338,8 @@ pub fn minimise(
 
         // Direction: the projected Hessian, regularised only where a row has no stiffness.
         // A semi-smooth step needs its factor only as GMRES's preconditioner, and the factor
-        // of an earlier iterate of this minimisation serves there while the semi-smooth steps
-        // go their full length: the Hessian then changes little from step to step.
+        // of an earlier iterate of this minimisation serves there: near the answer the
+        // Hessian changes little from step to step.
         let stale = semismooth && factored;
         if !stale {
             let a = SparseColMatRef::new(symbolic.as_ref(), values);
@@ -436,9 +435,6 @@ pub fn minimise(
                 }
                 alpha *= 0.5;
             };
-            // A step cut short (a contact closing, a line search) shows the model changing:
-            // the next one gets a factor of its own iterate.
-            factored &= accepted && alpha == 1.0;
             if accepted {
                 u.copy_from_slice(&trial_u);
                 lambda *= 0.1;
