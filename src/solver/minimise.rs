@@ -341,17 +341,10 @@ pub fn minimise(
         // of an earlier iterate of this minimisation serves there: near the answer the
         // Hessian changes little from step to step.
         let stale = semismooth && factored;
+        let lm = lambda.max(settings.lambda_min);
         if !stale {
             let a = SparseColMatRef::new(symbolic.as_ref(), values);
-            let made = factorize_hessian(
-                eq,
-                a,
-                diagonal,
-                lambda.max(settings.lambda_min),
-                &mut shift,
-                linear,
-                stats,
-            );
+            let made = factorize_hessian(eq, a, diagonal, lm, &mut shift, linear, stats);
             factored = made.is_ok();
             if let Err(e) = made {
                 if lambda >= 1e6 {
@@ -387,15 +380,7 @@ pub fn minimise(
             if solved.is_none() && stale {
                 // The earlier factor no longer serves: this iterate's Hessian may.
                 let a = SparseColMatRef::new(symbolic.as_ref(), values);
-                let made = factorize_hessian(
-                    eq,
-                    a,
-                    diagonal,
-                    lambda.max(settings.lambda_min),
-                    &mut shift,
-                    linear,
-                    stats,
-                );
+                let made = factorize_hessian(eq, a, diagonal, lm, &mut shift, linear, stats);
                 factored = made.is_ok();
                 if factored {
                     solved = solve(linear, &mut du, stats);
