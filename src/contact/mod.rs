@@ -180,11 +180,31 @@ impl Contact {
         self.bond_overload().map(|(_, mode)| mode)
     }
 
+    /// How far an intact bond between two grains is past its strength, in newtons: the larger
+    /// of `-F_n - F_t` (tension) and `|F_s| - (f F_n + F_t)` (shear), positive where it is
+    /// overloaded ([`Contact::bond_overload`]). `None` for anything else.
+    pub fn bond_margin(&self) -> Option<f64> {
+        let (fn_, fs, ft, shear_limit) = self.bond_limits()?;
+        Some((-fn_ - ft).max(fs.abs() - shear_limit))
+    }
+
     /// How far past its strength an intact bond is, as the ratio of its force to what it can
     /// carry (above 1), and how it fails: `-F_n / F_t` in tension (eq. 12), `|F_s| / (f F_n +
     /// F_t)` in shear (eq. 11); the larger counts. `None` while it holds (see
     /// [`Contact::bond_failure`]).
     pub fn bond_overload(&self) -> Option<(f64, BreakMode)> {
+        let (fn_, fs, ft, shear_limit) = self.bond_limits()?;
+        let tension = (fn_ < -ft).then(|| (-fn_ / ft, BreakMode::Tension));
+        let shear = (fs.abs() > shear_limit).then(|| (fs.abs() / shear_limit, BreakMode::Shear));
+        match (tension, shear) {
+            (Some(t), Some(s)) => Some(if s.0 > t.0 { s } else { t }),
+            (t, s) => t.or(s),
+        }
+    }
+
+    /// An intact bond between two grains: its normal and shear forces, its strength `F_t`
+    /// and its shear limit `f F_n + F_t` (infinite with infinite friction).
+    fn bond_limits(&self) -> Option<(f64, f64, f64, f64)> {
         if !self.bonded || matches!(self.pair.a, Side::Wall(_)) {
             return None;
         }
@@ -195,12 +215,7 @@ impl Contact {
         } else {
             self.params.friction * fn_ + ft
         };
-        let tension = (fn_ < -ft).then(|| (-fn_ / ft, BreakMode::Tension));
-        let shear = (fs.abs() > shear_limit).then(|| (fs.abs() / shear_limit, BreakMode::Shear));
-        match (tension, shear) {
-            (Some(t), Some(s)) => Some(if s.0 > t.0 { s } else { t }),
-            (t, s) => t.or(s),
-        }
+        Some((fn_, fs, ft, shear_limit))
     }
 
     /// Accumulated shear displacement including this increment.
@@ -293,6 +308,27 @@ mod tests {
         c.response.normal_force = normal_force;
         c.response.shear_force = shear_force;
         c
+    }
+
+    #[test]
+    fn bond_margin_is_positive_exactly_where_the_bond_is_overloaded() {
+        // Tension: F_t = 2 less the pull; shear: |F_s| less f F_n + F_t = 4.
+        assert_eq!(bonded(-3.0, 0.0).bond_margin(), Some(1.0));
+        assert_eq!(bonded(4.0, -5.0).bond_margin(), Some(1.0));
+        assert_eq!(bonded(4.0, 1.0).bond_margin(), Some(-3.0));
+        for (fn_, fs) in [
+            (-2.5, 0.0),
+            (-2.0, 0.0),
+            (4.0, 4.0),
+            (4.0, -4.5),
+            (1.0, 0.1),
+        ] {
+            let c = bonded(fn_, fs);
+            assert_eq!(c.bond_margin().unwrap() > 0.0, c.bond_overload().is_some());
+        }
+        let mut apart = bonded(-3.0, 0.0);
+        apart.bonded = false;
+        assert_eq!(apart.bond_margin(), None);
     }
 
     #[test]

@@ -53,9 +53,10 @@ enum Solved {
     /// Its equilibrium, with the bonds broken in it, committed.
     Committed,
     /// Its first equilibrium has a bond past its strength, and the step is wider than
-    /// [`BRACKET`]: not committed, so that its halves find the load at which the bond
-    /// breaks.
-    BondPastStrength,
+    /// [`BRACKET`]: not committed, so that its parts find the load at which the bond
+    /// breaks. `crossing` is the share of the step at which the first bond reaches its
+    /// strength, interpolated linearly between the step's start and its end.
+    BondPastStrength { crossing: f64 },
 }
 
 impl Simulation {
@@ -68,9 +69,10 @@ impl Simulation {
     /// left unsolved. No equilibrium near is halved until the step changes the load by at
     /// most [`BRACKET`], which brackets the limit load: the halves commit as they converge, so
     /// the state is left at the highest load found in equilibrium. A step whose equilibrium
-    /// has a bond past its strength is halved the same way, so the bond breaks within
-    /// [`BRACKET`] of the load that breaks it. `start` is the state the increment started
-    /// from.
+    /// has a bond past its strength is cut where a linear prediction puts the bond at its
+    /// strength ([`bracketing_cuts`]), so the bond breaks within [`BRACKET`] of the load that
+    /// breaks it, most often in two parts rather than the halvings of a bisection. `start`
+    /// is the state the increment started from.
     pub(super) fn minimise_step(
         &mut self,
         step: &LoadStep,
@@ -92,9 +94,9 @@ impl Simulation {
         result
     }
 
-    /// Solve `step`, part `part` of the increment; halve it where it does not converge, finds
-    /// no equilibrium near or breaks a bond while wider than [`BRACKET`] (see
-    /// [`Simulation::minimise_step`]).
+    /// Solve `step`, part `part` of the increment; halve it where it does not converge or finds
+    /// no equilibrium near, and cut it at the predicted break where it breaks a bond, while
+    /// wider than [`BRACKET`] (see [`Simulation::minimise_step`]).
     fn follow_path(
         &mut self,
         step: &LoadStep,
@@ -105,7 +107,10 @@ impl Simulation {
         let wide = part.depth < BRACKET_CUTS && load_change > BRACKET;
         let mut error = match self.solve_part(step, part.share, wide, report) {
             Ok(Solved::Committed) => return Ok(()),
-            Ok(Solved::BondPastStrength) => return self.follow_halves(step, part, false, report),
+            Ok(Solved::BondPastStrength { crossing }) => {
+                let cuts = bracketing_cuts(crossing, BRACKET / load_change);
+                return self.follow_parts(step, part, &cuts, false, report);
+            }
             Err(e) => e,
         };
         let halve = match error {
@@ -124,35 +129,38 @@ impl Simulation {
             return Err(error);
         }
         let stalled = matches!(error, NumericError::NotConverged { .. });
-        self.follow_halves(step, part, stalled, report)
+        self.follow_parts(step, part, &[0.5], stalled, report)
     }
 
-    /// Follow `step`, part `part` of the increment, in two halves; `stalled` when it is
-    /// halved because its minimisation did not converge.
-    fn follow_halves(
+    /// Follow `step`, part `part` of the increment, in parts that end at the shares `cuts` of
+    /// it (increasing, between 0 and 1) and at its end; `stalled` when it is cut because its
+    /// minimisation did not converge.
+    fn follow_parts(
         &mut self,
         step: &LoadStep,
         part: Part,
+        cuts: &[f64],
         stalled: bool,
         report: &mut IncrementReport,
     ) -> Result<(), NumericError> {
         report.cuts += 1;
         self.stats.counters.cuts += 1;
-        let stress: Vec<f64> = self.state.walls.walls.iter().map(|w| w.stress).collect();
-        let pressure: Vec<f64> = self.state.membranes.iter().map(|m| m.pressure).collect();
-        let (first, second) = step.halves(&stress, &pressure);
-        let first_part = Part {
-            from: part.from,
-            share: 0.5 * part.share,
+        let mut stress: Vec<f64> = self.state.walls.walls.iter().map(|w| w.stress).collect();
+        let mut pressure: Vec<f64> = self.state.membranes.iter().map(|m| m.pressure).collect();
+        let (mut rest, mut from) = (step.clone(), 0.0);
+        let piece = |from: f64, to: f64| Part {
+            from: part.from + from * part.share,
+            share: (to - from) * part.share,
             depth: part.depth + 1,
             stalls: part.stalls + u32::from(stalled),
         };
-        self.follow_path(&first, first_part, report)?;
-        let rest = Part {
-            from: part.from + first_part.share,
-            ..first_part
-        };
-        self.follow_path(&second, rest, report)
+        for &cut in cuts {
+            let (first, after) = rest.split((cut - from) / (1.0 - from), &stress, &pressure);
+            self.follow_path(&first, piece(from, cut), report)?;
+            (stress, pressure) = (first.stress, first.pressure);
+            (rest, from) = (after, cut);
+        }
+        self.follow_path(&rest, piece(from, 1.0), report)
     }
 
     /// Each grain's displacement in the last descent, from the state it started at: after an
@@ -261,10 +269,11 @@ impl Simulation {
         let result = self.solve_with_breaks(step, share, wide, report);
         match result {
             Ok(None) => {
+                let crossing = first_crossing(&committed, &self.state.contacts);
                 self.state.contacts = committed;
                 self.energy = energy;
                 self.restore_friends()?;
-                Ok(Solved::BondPastStrength)
+                Ok(Solved::BondPastStrength { crossing })
             }
             Ok(Some(u)) => {
                 report.negative_pivots = self.negative_pivots(step, &u);
@@ -705,6 +714,45 @@ struct Dropped {
     residuals: Vec<f64>,
 }
 
+/// The share of a step at which the first bond reaches its strength, its margin
+/// ([`Contact::bond_margin`]) interpolated linearly between the step's start (`committed`)
+/// and its end (`reached`, where some bond is past its strength): below its strength at the
+/// start, a bond's forces follow the load almost linearly while it holds.
+fn first_crossing(committed: &ContactSet, reached: &ContactSet) -> f64 {
+    let mut crossing = 1.0f64;
+    for c in &reached.contacts {
+        let Some(end) = c.bond_margin().filter(|&m| m > 0.0) else {
+            continue;
+        };
+        let start = committed
+            .contacts
+            .binary_search_by(|d| d.pair.cmp(&c.pair))
+            .ok()
+            .and_then(|i| committed.contacts[i].bond_margin())
+            .filter(|&m| m < 0.0);
+        let at = start.map_or(0.0, |m| m / (m - end));
+        crossing = crossing.min(at);
+    }
+    crossing
+}
+
+/// Where to cut a step whose end has a bond past its strength, `bracket` being the share of
+/// the step that changes the load by [`BRACKET`]: a part that ends half a bracket short of
+/// the predicted `crossing`, then one that goes 0.9 of a bracket on from there, within
+/// which the bond breaks where the prediction holds (a crossing within a bracket of the
+/// start: that part alone). Where it does not, each part is cut again from its own ends, a
+/// secant search; the bond still breaks within a bracket of its load. Bisection takes
+/// `log2(1 / bracket)` parts, each a minimisation, to the same end.
+fn bracketing_cuts(crossing: f64, bracket: f64) -> Vec<f64> {
+    let cuts = if crossing > bracket {
+        let below = crossing - 0.5 * bracket;
+        vec![below, below + 0.9 * bracket]
+    } else {
+        vec![0.9 * bracket]
+    };
+    cuts.into_iter().filter(|&c| c < 1.0).collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -713,6 +761,20 @@ mod tests {
     use crate::solver::{Potential, SolverConfig, Strategy};
     use rand::{Rng, SeedableRng};
     use std::path::Path;
+
+    #[test]
+    fn bracketing_cuts_straddle_the_predicted_break_within_one_bracket() {
+        // A bracket of a tenth of the step, the bond predicted to break at 0.62: a part to
+        // 0.57, then one to 0.66, which holds the break and changes the load by 0.9 brackets.
+        let cuts = bracketing_cuts(0.62, 0.1);
+        assert_eq!(cuts.len(), 2);
+        assert!((cuts[0] - 0.57).abs() < 1e-12 && (cuts[1] - 0.66).abs() < 1e-12);
+        // Within a bracket of the start: one part of 0.9 brackets holds it.
+        let cuts = bracketing_cuts(0.05, 0.1);
+        assert!(cuts.len() == 1 && (cuts[0] - 0.09).abs() < 1e-12);
+        // Near the end: the cut past the end goes.
+        assert_eq!(bracketing_cuts(0.99, 0.1).len(), 1);
+    }
 
     /// The minimisation's potential against its residual: along a random direction `v` from
     /// a random `u` (lag held), the central difference of the contacts' energy less the

@@ -1,4 +1,4 @@
-//! What the load program does to the walls in one load increment, and its halves.
+//! What the load program does to the walls in one load increment, and its parts.
 
 /// What the load program does to the walls in one (sub-)increment.
 #[derive(Debug, Clone, PartialEq)]
@@ -19,21 +19,82 @@ impl LoadStep {
     /// The step split in two halves, stresses and pressures passing through the midpoint from
     /// where they are (`from_stress`, `from_pressure`).
     pub fn halves(&self, from_stress: &[f64], from_pressure: &[f64]) -> (LoadStep, LoadStep) {
-        let mid = |to: &[f64], from: &[f64]| -> Vec<f64> {
-            to.iter().zip(from).map(|(t, f)| 0.5 * (t + f)).collect()
+        self.split(0.5, from_stress, from_pressure)
+    }
+
+    /// The step split in two where `share` (between 0 and 1) of it is made, stresses and
+    /// pressures passing through that share of their change from where they are
+    /// (`from_stress`, `from_pressure`).
+    pub fn split(
+        &self,
+        share: f64,
+        from_stress: &[f64],
+        from_pressure: &[f64],
+    ) -> (LoadStep, LoadStep) {
+        let scaled =
+            |moves: &[f64], by: f64| -> Vec<f64> { moves.iter().map(|m| by * m).collect() };
+        let between = |to: &[f64], from: &[f64]| -> Vec<f64> {
+            to.iter()
+                .zip(from)
+                .map(|(t, f)| f + share * (t - f))
+                .collect()
         };
-        let half = LoadStep {
-            normal_move: self.normal_move.iter().map(|m| 0.5 * m).collect(),
-            slide: self.slide.iter().map(|m| 0.5 * m).collect(),
-            turn: self.turn.iter().map(|m| 0.5 * m).collect(),
-            stress: mid(&self.stress, from_stress),
-            pressure: mid(&self.pressure, from_pressure),
+        let first = LoadStep {
+            normal_move: scaled(&self.normal_move, share),
+            slide: scaled(&self.slide, share),
+            turn: scaled(&self.turn, share),
+            stress: between(&self.stress, from_stress),
+            pressure: between(&self.pressure, from_pressure),
         };
         let rest = LoadStep {
+            normal_move: scaled(&self.normal_move, 1.0 - share),
+            slide: scaled(&self.slide, 1.0 - share),
+            turn: scaled(&self.turn, 1.0 - share),
             stress: self.stress.clone(),
             pressure: self.pressure.clone(),
-            ..half.clone()
         };
-        (half, rest)
+        (first, rest)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn step() -> LoadStep {
+        LoadStep {
+            normal_move: vec![-4e-6, 0.0],
+            slide: vec![0.0, 2e-6],
+            turn: vec![1e-3, 0.0],
+            stress: vec![3e6, 1e6],
+            pressure: vec![5e6],
+        }
+    }
+
+    #[test]
+    fn a_split_moves_its_share_and_the_rest_ends_where_the_step_does() {
+        let (first, rest) = step().split(0.25, &[1e6, 1e6], &[4e6]);
+        assert_eq!(first.normal_move, vec![-1e-6, 0.0]);
+        assert_eq!(rest.normal_move, vec![-3e-6, 0.0]);
+        assert_eq!((first.slide[1], rest.slide[1]), (0.5e-6, 1.5e-6));
+        assert_eq!((first.turn[0], rest.turn[0]), (0.25e-3, 0.75e-3));
+        assert_eq!(first.stress, vec![1.5e6, 1e6]);
+        assert_eq!(first.pressure, vec![4.25e6]);
+        assert_eq!(
+            (rest.stress.clone(), rest.pressure.clone()),
+            (step().stress, step().pressure)
+        );
+    }
+
+    #[test]
+    fn halves_are_the_split_at_one_half() {
+        let (from_stress, from_pressure) = ([2e6, 1e6], [4e6]);
+        let (first, rest) = step().halves(&from_stress, &from_pressure);
+        assert_eq!(first.stress, vec![2.5e6, 1e6]);
+        assert_eq!(first.normal_move, rest.normal_move);
+        assert_eq!(
+            (first, rest),
+            step().split(0.5, &from_stress, &from_pressure)
+        );
     }
 }
