@@ -16,12 +16,6 @@ pub struct LoadStep {
 }
 
 impl LoadStep {
-    /// The step split in two halves, stresses and pressures passing through the midpoint from
-    /// where they are (`from_stress`, `from_pressure`).
-    pub fn halves(&self, from_stress: &[f64], from_pressure: &[f64]) -> (LoadStep, LoadStep) {
-        self.split(0.5, from_stress, from_pressure)
-    }
-
     /// The step split in two where `share` (between 0 and 1) of it is made, stresses and
     /// pressures passing through that share of their change from where they are
     /// (`from_stress`, `from_pressure`).
@@ -87,14 +81,14 @@ mod tests {
     }
 
     #[test]
-    fn halves_are_the_split_at_one_half() {
-        let (from_stress, from_pressure) = ([2e6, 1e6], [4e6]);
-        let (first, rest) = step().halves(&from_stress, &from_pressure);
+    fn a_split_at_one_half_passes_through_the_midpoint_in_equal_moves() {
+        let (first, rest) = step().split(0.5, &[2e6, 1e6], &[4e6]);
         assert_eq!(first.stress, vec![2.5e6, 1e6]);
+        assert_eq!(first.pressure, vec![4.5e6]);
         assert_eq!(first.normal_move, rest.normal_move);
         assert_eq!(
-            (first, rest),
-            step().split(0.5, &from_stress, &from_pressure)
+            (first.slide.clone(), first.turn.clone()),
+            (rest.slide, rest.turn)
         );
     }
 }

@@ -74,7 +74,7 @@ impl Simulation {
                 self.stats.counters.cuts += 1;
                 let stress: Vec<f64> = self.state.walls.walls.iter().map(|w| w.stress).collect();
                 let pressure: Vec<f64> = self.state.membranes.iter().map(|m| m.pressure).collect();
-                let (first, second) = step.halves(&stress, &pressure);
+                let (first, second) = step.split(0.5, &stress, &pressure);
                 self.relax_increment(&first, depth + 1, report)?;
                 self.relax_increment(&second, depth + 1, report)
             }
