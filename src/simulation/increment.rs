@@ -145,8 +145,7 @@ impl Simulation {
     ) -> Result<(), NumericError> {
         report.cuts += 1;
         self.stats.counters.cuts += 1;
-        let mut stress: Vec<f64> = self.state.walls.walls.iter().map(|w| w.stress).collect();
-        let mut pressure: Vec<f64> = self.state.membranes.iter().map(|m| m.pressure).collect();
+        let (mut stress, mut pressure) = self.held_loads();
         let (mut rest, mut from) = (step.clone(), 0.0);
         let piece = |from: f64, to: f64| Part {
             from: part.from + from * part.share,

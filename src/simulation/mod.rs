@@ -607,15 +607,25 @@ impl Simulation {
         )
     }
 
+    /// The stresses on the walls and the pressures on the membranes that the committed state
+    /// carries: where a part of a step starts its loads from.
+    pub(super) fn held_loads(&self) -> (Vec<f64>, Vec<f64>) {
+        (
+            self.state.walls.walls.iter().map(|w| w.stress).collect(),
+            self.state.membranes.iter().map(|m| m.pressure).collect(),
+        )
+    }
+
     /// Largest force or moment imbalance of any grain, relative to the mean contact force, in
     /// the committed state (moments divided by the mean radius).
     pub fn equilibrium_error(&mut self) -> (f64, usize) {
+        let (stress, pressure) = self.held_loads();
         let step = LoadStep {
             normal_move: vec![0.0; self.state.walls.len()],
             slide: vec![0.0; self.state.walls.len()],
             turn: vec![0.0; self.state.walls.len()],
-            stress: self.state.walls.walls.iter().map(|w| w.stress).collect(),
-            pressure: self.state.membranes.iter().map(|m| m.pressure).collect(),
+            stress,
+            pressure,
         };
         let u = vec![0.0; self.dofs.len];
         let mut r = vec![0.0; self.dofs.len];

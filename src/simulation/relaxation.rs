@@ -72,8 +72,7 @@ impl Simulation {
                 }
                 report.cuts += 1;
                 self.stats.counters.cuts += 1;
-                let stress: Vec<f64> = self.state.walls.walls.iter().map(|w| w.stress).collect();
-                let pressure: Vec<f64> = self.state.membranes.iter().map(|m| m.pressure).collect();
+                let (stress, pressure) = self.held_loads();
                 let (first, second) = step.split(0.5, &stress, &pressure);
                 self.relax_increment(&first, depth + 1, report)?;
                 self.relax_increment(&second, depth + 1, report)
