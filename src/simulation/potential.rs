@@ -133,9 +133,12 @@ impl IncrementEquations<'_> {
         // A contact that (almost) only touches has (almost) no stiffness: a step from it
         // would drive its grains deep into each other. Its Hessian gets at least the
         // stiffness it has carrying a negligible share of the force scale.
-        let floor = if n > 0.0 {
+        let floor_force = FLOOR_FORCE * self.f_ref.max(self.load_scale);
+        let binds =
             self.law
-                .tangent_floor(&c.params, FLOOR_FORCE * self.f_ref.max(self.load_scale))
+                .floor_may_bind(&c.params, normal_force, c.lag.shear_stiffness, floor_force);
+        let floor = if n > 0.0 && binds {
+            self.law.tangent_floor(&c.params, floor_force)
         } else {
             0.0
         };
