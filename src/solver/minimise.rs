@@ -10,8 +10,8 @@
 //! solve; refreezing after every step there can cycle).
 //! Convergence is tested on the residual of a refrozen evaluation, which is the true,
 //! unlagged one. Near the answer the grain the step leaves worst is balanced exactly on its
-//! own ([`Potential::balance_grain`]), and semi-smooth Newton steps on the consistent
-//! tangent take over from the lag.
+//! own ([`Potential::balance_grain`]), and where the lag stalls, semi-smooth Newton steps
+//! on the consistent tangent take over.
 //!
 //! The minimiser knows neither the physics (the [`Potential`]) nor the linear solver beyond
 //! the [`LinearSolver`] contract.
@@ -169,11 +169,14 @@ const FLOPPY_ROTATION: f64 = 1e-2;
 /// full steps have brought it down.
 const LAMBDA_START: f64 = 1e-4;
 
-/// Relative residual below which every step is a semi-smooth one: there the contacts' states
-/// have nearly settled, and Newton on the true residual converges in a few steps where the
-/// fixed point on the lag converges linearly, or, where a sliding contact's friction drives
-/// it into itself (a grain wedged on a barely touching contact), diverges.
+/// Relative residual below which a lag that stops converging hands over to semi-smooth
+/// Newton steps.
 const SEMISMOOTH_BELOW: f64 = 1e-2;
+
+/// Relative residual below which every step is a semi-smooth one: near the answer the
+/// contacts' states have settled, and Newton on the true residual converges in a step or two
+/// where the fixed point on the lag converges linearly.
+const SEMISMOOTH_NEAR: f64 = 1e-3;
 
 /// Share of the residual at which a semi-smooth step failed below which it is tried again:
 /// where the consistent tangent is no better a model than the Hessian (an unstable packing's
@@ -216,6 +219,11 @@ const FRESH_START: f64 = 10.0;
 /// minimum near, and its descent would crawl on without the true residual ever being looked
 /// at again.
 const HOLD_STEPS: usize = 20;
+
+/// Refreezes in a row that did not halve the true residual before semi-smooth Newton takes
+/// over: the refrozen lag is a fixed-point iteration, and where a sliding contact's friction
+/// drives it into itself (a grain wedged on a barely touching contact) it diverges.
+const LAG_STALLS: usize = 2;
 
 /// GMRES on the consistent tangent, preconditioned by the Cholesky of the Hessian: its
 /// relative tolerance and its iterations at most.
@@ -277,9 +285,9 @@ pub fn minimise(
     let mut frozen = true;
     // Accepted steps since the lag was last refrozen.
     let mut held = 0usize;
-    // Semi-smooth Newton: on below `SEMISMOOTH_BELOW`, off again where its step fails, and
-    // tried again only once the lagged descent has taken the residual a tenth further down.
-    let mut semismooth = false;
+    // Semi-smooth Newton: on once the lag stalls, off again where its step fails, and tried
+    // again only once the lagged descent has taken the residual a tenth further down.
+    let (mut semismooth, mut stalls) = (false, 0usize);
     let mut semismooth_below = f64::INFINITY;
     // Where the last semi-smooth step that raised the residual at a closing pair started.
     let mut rise_from = f64::INFINITY;
@@ -381,7 +389,7 @@ pub fn minimise(
             if solved.is_none() {
                 // The Hessian is no preconditioner of the consistent tangent here: back to
                 // the lagged minimisation.
-                semismooth = false;
+                (semismooth, stalls) = (false, 0);
                 semismooth_below = RETRY_SHARE * rel;
                 (energy, (rel, worst, merit)) = refrozen(eq, u, &mut residual, values)?;
                 true_merit = merit;
@@ -493,6 +501,7 @@ pub fn minimise(
             if !frozen {
                 // The lagged potential is as low as round-off lets it go: refreeze.
                 (energy, (rel, worst, merit)) = refrozen(eq, u, &mut residual, values)?;
+                stalls = lag_stalls(stalls, merit, true_merit);
                 true_merit = merit;
                 frozen = true;
                 out.history.push(rel);
@@ -523,6 +532,7 @@ pub fn minimise(
         energy = eq.evaluate(u, &mut residual, Some(values), frozen)?;
         (rel, worst, merit) = eq.residual_norm(&residual);
         if frozen {
+            stalls = lag_stalls(stalls, merit, true_merit);
             true_merit = merit;
             if merit > LAG_JUMP * trial_merit && !cycled {
                 // The lag, not the model, is what stalls: semi-smooth steps are for that.
@@ -533,7 +543,8 @@ pub fn minimise(
                 true_merit = merit;
             }
         }
-        semismooth = rel < SEMISMOOTH_BELOW && rel < semismooth_below;
+        semismooth = (rel < SEMISMOOTH_NEAR || (stalls >= LAG_STALLS && rel < SEMISMOOTH_BELOW))
+            && rel < semismooth_below;
         cycled &= !semismooth;
         if cycled && rel > FRESH_START * lowest.0 {
             // The lagged descent took the residual far from the cycle's: the cycle is behind
@@ -615,6 +626,16 @@ fn lowest_since_start(lowest: (f64, usize), rel: f64, iteration: usize) -> (f64,
         (rel, iteration)
     } else {
         lowest
+    }
+}
+
+/// Refreezes in a row that did not halve the true residual (from `before` to `merit`): the
+/// lag stalls.
+fn lag_stalls(stalls: usize, merit: f64, before: f64) -> usize {
+    if merit > 0.5 * before {
+        stalls + 1
+    } else {
+        0
     }
 }
 
