@@ -65,7 +65,8 @@ pub trait ContactLaw: Send + Sync {
 
     /// Whether [`ContactLaw::tangent_floor`] for `force_scale` may exceed the normal tangent
     /// (or secant) of a contact carrying `force`, or its shear stiffness `shear_stiffness`
-    /// times `kappa`: where it cannot, it need not be computed.
+    /// times `kappa`: where it cannot, it need not be computed. A law that cannot say
+    /// cheaply leaves it true.
     fn floor_may_bind(
         &self,
         _p: &ContactParams,
@@ -73,7 +74,7 @@ pub trait ContactLaw: Send + Sync {
         _shear_stiffness: f64,
         _force_scale: f64,
     ) -> bool {
-        false
+        true
     }
 
     /// The full response: elastic trial `F_s0 + k_s ds`, then, unless bonded, the return

@@ -134,10 +134,11 @@ impl IncrementEquations<'_> {
         // would drive its grains deep into each other. Its Hessian gets at least the
         // stiffness it has carrying a negligible share of the force scale.
         let floor_force = FLOOR_FORCE * self.f_ref.max(self.load_scale);
-        let binds =
-            self.law
-                .floor_may_bind(&c.params, normal_force, c.lag.shear_stiffness, floor_force);
-        let floor = if n > 0.0 && binds {
+        let floor = if n > 0.0
+            && self
+                .law
+                .floor_may_bind(&c.params, normal_force, c.lag.shear_stiffness, floor_force)
+        {
             self.law.tangent_floor(&c.params, floor_force)
         } else {
             0.0
