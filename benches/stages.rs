@@ -121,6 +121,7 @@ fn stages(c: &mut Criterion) {
             membranes: &[],
             chains: &mut chains,
             chains_held: false,
+            chains_found_at: Vec::new(),
             carriers: &[],
             anchors: &anchors,
             reopened: &[],

@@ -35,6 +35,9 @@ pub struct IncrementEquations<'a> {
     /// Whether the chains stay as they are from now on: a grain on the membrane probe's line
     /// can flip them from refreeze to refreeze (see [`super::CHAIN_CHANGES`]).
     pub chains_held: bool,
+    /// The grains' positions where the chains were last found and taken: a refreeze where
+    /// no grain has moved since (a step accepted, then refrozen) finds the same chains.
+    pub chains_found_at: Vec<[f64; 2]>,
     /// The grains the membranes may lie on ([`super::membrane_carriers`]).
     pub carriers: &'a [bool],
     /// Springs on the rigid-body motions no wall holds.

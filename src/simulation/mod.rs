@@ -396,6 +396,7 @@ impl Simulation {
             membranes: &self.state.membranes,
             chains: &mut self.chains,
             chains_held: false,
+            chains_found_at: Vec::new(),
             carriers: &self.carriers,
             anchors: &self.anchors,
             reopened: &self.reopened,

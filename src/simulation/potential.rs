@@ -194,7 +194,8 @@ impl IncrementEquations<'_> {
     /// At a refreeze, each membrane's chain on the grains where they are now, unless the
     /// chains are held; a chain the pattern does not couple is noted and not taken.
     pub(super) fn refreeze_chains(&mut self) {
-        if self.membranes.is_empty() || self.chains_held {
+        if self.membranes.is_empty() || self.chains_held || self.chains_found_at == self.q.position
+        {
             return;
         }
         let chains = chains(
@@ -210,6 +211,7 @@ impl IncrementEquations<'_> {
             .all(|(a, b)| a.grains == b.grains)
         {
             *self.chains = chains;
+            self.chains_found_at.clone_from(&self.q.position);
             return;
         }
         self.chain_changes += 1;
@@ -218,6 +220,7 @@ impl IncrementEquations<'_> {
             return;
         }
         *self.chains = chains;
+        self.chains_found_at.clone_from(&self.q.position);
         self.chains_held = self.chain_changes >= CHAIN_CHANGES;
     }
 }
