@@ -205,23 +205,20 @@ impl IncrementEquations<'_> {
             self.carriers,
             &self.grains.taken_out,
         );
-        if chains
+        let changed = chains
             .iter()
             .zip(self.chains.iter())
-            .all(|(a, b)| a.grains == b.grains)
-        {
-            *self.chains = chains;
-            self.chains_found_at.clone_from(&self.q.position);
-            return;
-        }
-        self.chain_changes += 1;
-        if !self.pattern.couples(self.dofs, &chains) {
-            self.stale_pattern = true;
-            return;
+            .any(|(a, b)| a.grains != b.grains);
+        if changed {
+            self.chain_changes += 1;
+            if !self.pattern.couples(self.dofs, &chains) {
+                self.stale_pattern = true;
+                return;
+            }
+            self.chains_held = self.chain_changes >= CHAIN_CHANGES;
         }
         *self.chains = chains;
         self.chains_found_at.clone_from(&self.q.position);
-        self.chains_held = self.chain_changes >= CHAIN_CHANGES;
     }
 }
 
