@@ -28,6 +28,10 @@ const NEAR_GAP: f64 = 1e-3;
 /// Share of the force scale below which a grain's own balance counts as exact.
 const BALANCED: f64 = 1e-13;
 
+/// Bodies a grain touches or is bonded to at most for it to count as loosely held: a
+/// rattler touched, a grain wedged between two or three others.
+const LOOSE_CONTACTS: usize = 3;
+
 /// One contact's shear force in [`Potential::balance_rotations`] as a function of the shear
 /// made, `clamp(trial - stiffness s, -limit, limit)`, and the grains it turns (`b`, and `a`
 /// unless it is a wall).
@@ -573,6 +577,39 @@ impl Potential for IncrementEquations<'_> {
             *x += dx;
         }
         true
+    }
+
+    fn loose_neighbours(&self, grain: usize) -> Vec<usize> {
+        let grains_of = |c: &Contact| {
+            let a = match c.pair.a {
+                Side::Grain(a) => Some(a),
+                Side::Wall(_) => None,
+            };
+            (a, c.pair.b)
+        };
+        let mut neighbours: Vec<(usize, usize)> = (self.contacts.iter())
+            .filter(|c| !c.bonded && c.overlap > 0.0)
+            .filter_map(|c| match grains_of(c) {
+                (Some(a), b) if a == grain => Some((b, 0)),
+                (Some(a), b) if b == grain => Some((a, 0)),
+                _ => None,
+            })
+            .collect();
+        if neighbours.is_empty() {
+            return Vec::new();
+        }
+        for c in (self.contacts.iter()).filter(|c| Self::engaged(c)) {
+            let (a, b) = grains_of(c);
+            for (g, held) in &mut neighbours {
+                if a == Some(*g) || b == *g {
+                    *held += 1;
+                }
+            }
+        }
+        (neighbours.into_iter())
+            .filter(|&(_, held)| held <= LOOSE_CONTACTS)
+            .map(|(g, _)| g)
+            .collect()
     }
 
     fn runaway(&self, _u: &[f64]) -> Vec<usize> {

@@ -111,6 +111,11 @@ pub trait Potential {
 
     /// The grains that moved more than their diameter in this increment.
     fn runaway(&self, u: &[f64]) -> Vec<usize>;
+
+    /// The loosely held grains that touch `grain`, as of the last evaluation: those pressed
+    /// on it by an unbonded contact that touch or are bonded to at most three bodies in all
+    /// (a rattler it touches, a grain wedged against it).
+    fn loose_neighbours(&self, grain: usize) -> Vec<usize>;
 }
 
 /// Settings of one minimisation.
@@ -574,7 +579,11 @@ pub fn minimise(
 /// grain is moved to its exact equilibrium with the rest held ([`Potential::balance_grain`]),
 /// from the states its contacts had when it was last balanced. The global step cannot resolve
 /// a grain whose contacts sit on the edge of sticking, sliding or touching; the next global
-/// step starts from where the grain is balanced. Returns whether it moved.
+/// step starts from where the grain is balanced. The loosely held grains that touch it are
+/// balanced first ([`Potential::loose_neighbours`]): the worst grain's residual is often
+/// theirs, the force of a rattler it touches whose sliding contact's limit the lag moves at
+/// every refreeze, and balancing the worst grain alone moves the wrong one. Returns whether
+/// any moved.
 fn balance_worst(
     eq: &mut dyn Potential,
     u: &mut [f64],
@@ -590,7 +599,11 @@ fn balance_worst(
     if balanced.0 != worst {
         *balanced = (worst, Vec::new());
     }
-    eq.balance_grain(u, residual, worst, &mut balanced.1)
+    let mut moved = false;
+    for grain in eq.loose_neighbours(worst) {
+        moved |= eq.balance_grain(u, residual, grain, &mut Vec::new());
+    }
+    eq.balance_grain(u, residual, worst, &mut balanced.1) || moved
 }
 
 /// Factorise the Hessian `a`, regularised (see [`regularise`]) with the Levenberg-Marquardt
