@@ -27,6 +27,10 @@ const MAX_CHANGES: usize = 2;
 /// Contacts of one grain the search takes at most (4^7 assignments).
 pub const MAX_CONTACTS: usize = 7;
 
+/// Singular values of the grain's tangent below this share of the largest count as zero in
+/// its least-squares step.
+const SINGULAR: f64 = 1e-12;
+
 /// One contact of the grain, as the grain's move `d = (dx, dy, dphi)` changes it.
 pub struct LocalContact {
     /// Overlap where the grain is now (m).
@@ -217,7 +221,18 @@ impl GrainBalance<'_> {
                 (false, false) => 0.0,
             });
             let b = nalgebra::Vector3::new(r[0], r[1], if n == 3 { r[2] } else { 0.0 });
-            let step = a.lu().solve(&b)?;
+            // Where no contact sticks, nothing holds the rotation: its column is zero. The
+            // step is then the least-squares one of least size, which leaves the rotation be
+            // and still asks the moments to balance (two contacts at the friction angle
+            // balance only with equal normal forces).
+            let step = match a.lu().solve(&b) {
+                Some(step) => step,
+                None => {
+                    let svd = a.svd(true, true);
+                    let floor = SINGULAR * svd.singular_values.max();
+                    svd.solve(&b, floor).ok()?
+                }
+            };
             for i in 0..n {
                 d[i] += step[i];
             }
@@ -265,6 +280,50 @@ mod tests {
             }],
             far: Vec::new(),
         }
+    }
+
+    /// A grain free to turn, pushed up by 1 N into a slot between two straight walls whose
+    /// normals lean 45 degrees either side of the push: both contacts slide, in opposite
+    /// directions, and nothing holds the rotation.
+    fn in_slot() -> GrainBalance<'static> {
+        let params = ContactParams {
+            stiffness: 1e6,
+            kappa: 0.8,
+            friction: 0.5,
+            strength: 0.0,
+        };
+        let (s, r) = (std::f64::consts::FRAC_1_SQRT_2, 1e-3);
+        let wall = |side: f64| LocalContact {
+            overlap: 0.0,
+            shear: 0.0,
+            branch: None,
+            bn: [side * s, s, 0.0],
+            bt: [s, -side * s, -r],
+            force0: 0.0,
+            params,
+            bonded: false,
+        };
+        GrainBalance {
+            law: &LinearCohesive,
+            external: [0.0, 1.0, 0.0],
+            unknowns: 3,
+            tolerance: 1e-13,
+            radius: r,
+            near: vec![wall(1.0), wall(-1.0)],
+            far: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn a_grain_sliding_on_all_its_contacts_balances_without_turning() {
+        let (d, states) = in_slot().nearest(&[]).expect("an equilibrium");
+        assert_eq!(states, vec![SLIDE_BACKWARD, SLIDE_FORWARD]);
+        // Equal normal forces N with shears f N against the push: 2 N (cos + f sin) = 1 N,
+        // and N = k n with the overlap n = dy cos 45.
+        let normal = 1.0 / (2.0 * std::f64::consts::FRAC_1_SQRT_2 * 1.5);
+        let dy = normal / 1e6 / std::f64::consts::FRAC_1_SQRT_2;
+        assert!(d[0].abs() < 1e-15 && d[2].abs() < 1e-12, "{d:?}");
+        assert!((d[1] - dy).abs() < 1e-12 * dy.max(1e-6), "{d:?}");
     }
 
     #[test]
