@@ -78,16 +78,32 @@ pub(crate) fn read_in_child(path: &Path, read: impl FnOnce() -> bool) -> Result<
     let limit = std::time::Duration::from_secs(20 + size / 10_000_000);
     // Fork while holding hdf5's lock, so that no other thread of ours is inside libhdf5 at
     // the fork (the child would wait for that lock for ever); the child, a copy of this
-    // thread, holds it.
+    // thread, holds it. The lock is let go only once the child has closed the files other
+    // threads have open: until then it holds their locks too, and a thread opening one of
+    // them again would find it locked.
     let pid = hdf5::sync::sync(|| {
+        let mut pipe = [-1; 2];
+        // SAFETY: makes a pipe in this process; on failure `pipe` stays -1 and the fork
+        // goes on without the wait.
+        unsafe { libc::pipe(pipe.as_mut_ptr()) };
+        let [closed, signal] = pipe;
         // SAFETY: the child runs `read` and leaves by `_exit`, touching nothing shared but the
         // file; no lock the child needs is held by another thread (see above).
         let pid = unsafe { libc::fork() };
         if pid == 0 {
-            // Files other threads have open were inherited with their locks, which would
-            // stay held as long as this child lives: let them go (the child opens its own).
-            // SAFETY: closes this process's descriptors from 3 up; nothing here uses them.
-            unsafe { libc::syscall(libc::SYS_close_range, 3u32, u32::MAX, 0u32) };
+            // Files other threads have open were inherited with their locks: let them go
+            // (the child opens its own), then the pipe's end, which tells the parent.
+            // SAFETY: closes this process's descriptors from 3 up, `signal` last; nothing
+            // here uses them.
+            unsafe {
+                if signal > 3 {
+                    libc::syscall(libc::SYS_close_range, 3u32, signal as u32 - 1, 0u32);
+                    libc::syscall(libc::SYS_close_range, signal as u32 + 1, u32::MAX, 0u32);
+                    libc::close(signal);
+                } else {
+                    libc::syscall(libc::SYS_close_range, 3u32, u32::MAX, 0u32);
+                }
+            }
             // Gone by itself after the time limit, even if this process is killed first
             // and no one is left to kill it (SIGALRM ends a process).
             // SAFETY: only sets this process's timer.
@@ -98,6 +114,16 @@ pub(crate) fn read_in_child(path: &Path, read: impl FnOnce() -> bool) -> Result<
             };
             // SAFETY: ends the child at once, running no destructors and flushing nothing.
             unsafe { libc::_exit(code) }
+        }
+        // SAFETY: closes this process's ends of the pipe after reading from it, which
+        // returns once the child has closed its end (or has ended).
+        unsafe {
+            libc::close(signal);
+            if pid > 0 {
+                let mut byte = 0u8;
+                libc::read(closed, (&mut byte as *mut u8).cast(), 1);
+            }
+            libc::close(closed);
         }
         pid
     });
