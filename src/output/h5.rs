@@ -83,23 +83,24 @@ pub(crate) fn read_in_child(path: &Path, read: impl FnOnce() -> bool) -> Result<
     // them again would find it locked.
     let pid = hdf5::sync::sync(|| {
         let mut pipe = [-1; 2];
-        // SAFETY: makes a pipe in this process; on failure `pipe` stays -1 and the fork
-        // goes on without the wait.
-        unsafe { libc::pipe(pipe.as_mut_ptr()) };
-        let [closed, signal] = pipe;
+        // SAFETY: makes a pipe in this process, closed on exec so that no program started
+        // meanwhile keeps it open; on failure `pipe` stays -1 and the fork goes on without
+        // the wait.
+        unsafe { libc::pipe2(pipe.as_mut_ptr(), libc::O_CLOEXEC) };
+        let [wait_end, tell_end] = pipe;
         // SAFETY: the child runs `read` and leaves by `_exit`, touching nothing shared but the
         // file; no lock the child needs is held by another thread (see above).
         let pid = unsafe { libc::fork() };
         if pid == 0 {
             // Files other threads have open were inherited with their locks: let them go
             // (the child opens its own), then the pipe's end, which tells the parent.
-            // SAFETY: closes this process's descriptors from 3 up, `signal` last; nothing
+            // SAFETY: closes this process's descriptors from 3 up, `tell_end` last; nothing
             // here uses them.
             unsafe {
-                if signal > 3 {
-                    libc::syscall(libc::SYS_close_range, 3u32, signal as u32 - 1, 0u32);
-                    libc::syscall(libc::SYS_close_range, signal as u32 + 1, u32::MAX, 0u32);
-                    libc::close(signal);
+                if tell_end > 3 {
+                    libc::syscall(libc::SYS_close_range, 3u32, tell_end as u32 - 1, 0u32);
+                    libc::syscall(libc::SYS_close_range, tell_end as u32 + 1, u32::MAX, 0u32);
+                    libc::close(tell_end);
                 } else {
                     libc::syscall(libc::SYS_close_range, 3u32, u32::MAX, 0u32);
                 }
@@ -118,12 +119,12 @@ pub(crate) fn read_in_child(path: &Path, read: impl FnOnce() -> bool) -> Result<
         // SAFETY: closes this process's ends of the pipe after reading from it, which
         // returns once the child has closed its end (or has ended).
         unsafe {
-            libc::close(signal);
+            libc::close(tell_end);
             if pid > 0 {
                 let mut byte = 0u8;
-                libc::read(closed, (&mut byte as *mut u8).cast(), 1);
+                libc::read(wait_end, (&mut byte as *mut u8).cast(), 1);
             }
-            libc::close(closed);
+            libc::close(wait_end);
         }
         pid
     });
