@@ -94,16 +94,13 @@ pub(crate) fn read_in_child(path: &Path, read: impl FnOnce() -> bool) -> Result<
         if pid == 0 {
             // Files other threads have open were inherited with their locks: let them go
             // (the child opens its own), then the pipe's end, which tells the parent.
-            // SAFETY: closes this process's descriptors from 3 up, `tell_end` last; nothing
-            // here uses them.
+            // SAFETY: closes this process's descriptors from 3 up, `tell_end` last (an empty
+            // range, below 3 or without a pipe, closes nothing); nothing here uses them.
             unsafe {
-                if tell_end > 3 {
-                    libc::syscall(libc::SYS_close_range, 3u32, tell_end as u32 - 1, 0u32);
-                    libc::syscall(libc::SYS_close_range, tell_end as u32 + 1, u32::MAX, 0u32);
-                    libc::close(tell_end);
-                } else {
-                    libc::syscall(libc::SYS_close_range, 3u32, u32::MAX, 0u32);
-                }
+                let keep = tell_end.max(2) as u32;
+                libc::syscall(libc::SYS_close_range, 3u32, keep - 1, 0u32);
+                libc::syscall(libc::SYS_close_range, keep + 1, u32::MAX, 0u32);
+                libc::close(tell_end);
             }
             // Gone by itself after the time limit, even if this process is killed first
             // and no one is left to kill it (SIGALRM ends a process).
@@ -122,7 +119,11 @@ pub(crate) fn read_in_child(path: &Path, read: impl FnOnce() -> bool) -> Result<
             libc::close(tell_end);
             if pid > 0 {
                 let mut byte = 0u8;
-                libc::read(wait_end, (&mut byte as *mut u8).cast(), 1);
+                // A signal may cut the read short; only the child's end closing ends it.
+                while libc::read(wait_end, (&mut byte as *mut u8).cast(), 1) < 0
+                    && std::io::Error::last_os_error().kind() == std::io::ErrorKind::Interrupted
+                {
+                }
             }
             libc::close(wait_end);
         }
