@@ -108,6 +108,7 @@ fn stages(c: &mut Criterion) {
         let mut q = Configuration::at_rest(&state.grains, &state.walls);
         let mut kin = Vec::new();
         let mut chains = Vec::new();
+        let mut loose = Vec::new();
         let u = vec![0.0; dofs.len];
         let mut residual = vec![0.0; dofs.len];
         let mut values = vec![0.0; pattern.nnz()];
@@ -124,6 +125,7 @@ fn stages(c: &mut Criterion) {
             chains_found_at: Vec::new(),
             carriers: &[],
             anchors: &anchors,
+            loose: &mut loose,
             reopened: &[],
             dofs: &dofs,
             pattern: &pattern,

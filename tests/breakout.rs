@@ -5,7 +5,7 @@
 
 mod common;
 
-use grainstat::contact::BreakMode;
+use grainstat::contact::{BreakMode, BrokenBond, Contact};
 use grainstat::estimate::{cylinder_failure, CylinderBreakout};
 use grainstat::geometry::Side;
 use grainstat::output::plot::plot;
@@ -242,4 +242,70 @@ fn a_breakout_in_the_increment_that_fails_is_on_file_and_reported() {
     let written = plot(&path, Some(&plots), None).unwrap();
     let picture = plots.join(format!("breakout-1-{last:08}.png"));
     assert!(written.contains(&picture), "{picture:?} not written");
+}
+
+/// The grain of the borehole's surface nearest its centre, whose bonds have all broken and that touches nothing is
+/// free to fall into the borehole: the next increment takes it out as a breakout at the load
+/// it commits, and the rest solves on. A grain in the body of the annulus, loose the same way,
+/// is caged by its neighbours and stays.
+#[test]
+fn a_grain_come_loose_at_the_borehole_breaks_out_and_one_in_a_pore_stays() {
+    let mut sim = common::annulus_to_failure(40);
+    sim.run_increment().unwrap();
+    let g = &sim.state.grains;
+    let distance = |i: usize| g.position[i][0].hypot(g.position[i][1]);
+    let surface = (0..g.len())
+        .min_by(|&a, &b| distance(a).total_cmp(&distance(b)))
+        .unwrap();
+    let r = g.radius[0];
+    // A grain in the middle of the annulus's wall (radii 6 r to 16 r), on the negative x axis.
+    let inner = (0..g.len())
+        .filter(|&i| g.position[i][0] < 0.0 && g.position[i][1].abs() < r)
+        .min_by(|&a, &b| {
+            (distance(a) - 11.0 * r)
+                .abs()
+                .total_cmp(&(distance(b) - 11.0 * r).abs())
+        })
+        .unwrap();
+    assert!(distance(inner) > distance(surface) + 4.0 * r);
+    // Both made loose: bonds broken, touching nothing.
+    let set = &mut sim.state.contacts;
+    for &loose in &[surface, inner] {
+        for c in &mut set.contacts {
+            if c.bonded && (c.pair.b == loose || c.pair.a == Side::Grain(loose)) {
+                (c.bonded, c.broken) = (false, true);
+                set.broken_bonds.push(BrokenBond {
+                    pair: c.pair,
+                    increment: 1,
+                    mode: BreakMode::Tension,
+                });
+            }
+        }
+    }
+    // The surface grain moved half a radius into the borehole; the inner one made 5%
+    // smaller, a rattler in its pore.
+    let p = sim.state.grains.position[surface];
+    let shift = [
+        -0.5 * r * p[0] / p[0].hypot(p[1]),
+        -0.5 * r * p[1] / p[0].hypot(p[1]),
+    ];
+    for (v, s) in [0, 1].map(|i| (i, shift[i])) {
+        sim.state.grains.displacement[surface][v] += s;
+        sim.state.grains.position[surface][v] += s;
+    }
+    sim.state.grains.radius[inner] *= 0.95;
+    let touches = |c: &Contact, i: usize| c.pair.b == i || c.pair.a == Side::Grain(i);
+    (sim.state.contacts.contacts).retain(|c| !(touches(c, surface) || touches(c, inner)));
+    let report = sim.run_increment().unwrap();
+    assert_eq!(report.increment, 2);
+    let [breakout] = &sim.state.breakouts[..] else {
+        panic!("expected one breakout, got {:?}", sim.state.breakouts);
+    };
+    assert_eq!(breakout.grains, [surface]);
+    assert_eq!(breakout.increment, 2);
+    assert_eq!(breakout.pressure, [sim.state.membranes[0].pressure]);
+    assert!(sim.state.grains.taken_out[surface] && !sim.state.grains.taken_out[inner]);
+    sim.run_increment().unwrap();
+    let (error, grain) = sim.equilibrium_error();
+    assert!(error < 1e-6, "imbalance {error:e} at grain {grain}");
 }

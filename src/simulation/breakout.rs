@@ -1,14 +1,20 @@
 //! Taking a cluster of grains out of a running simulation: the grains that broke out of the
 //! sample (the borehole's surface of the cylinder test, thesis 4.4.2), which no equilibrium
-//! holds any more. They keep their rows in every per-grain array, so grain indices never
-//! change; from then on they touch nothing and carry nothing, their unknowns are held where
-//! they were taken out, and no measurement counts them.
+//! holds any more, or which came loose from it and are free to fall into the borehole. They
+//! keep their rows in every per-grain array, so grain indices never change; from then on
+//! they touch nothing and carry nothing, their unknowns are held where they were taken out,
+//! and no measurement counts them.
 
 use super::{anchors, chains, energy, membrane_carriers, Simulation};
 use crate::contact::{BreakMode, BrokenBond, ContactSet};
 use crate::geometry::{Side, WallControl};
-use crate::state::Breakout;
+use crate::state::{Breakout, IncrementReport};
 use crate::NumericError;
+
+/// How far, in its largest diameters, a cluster that touches nothing of the sample must be
+/// free to move towards the borehole's centre to count as broken out: a grain loose in a
+/// pore is caged closer than that.
+const FREE_PATH: f64 = 1.0;
 
 impl Simulation {
     /// Take `grains` out of the sample, and record it as a breakout in the state.
@@ -104,6 +110,123 @@ impl Simulation {
         breakout
     }
 
+    /// Take out, in a stage that takes breakouts out, each cluster of the committed state that
+    /// has come loose from the sample at the borehole: grains joined by bonds or touching
+    /// contacts, none of them to the body of the sample (its largest such cluster), at least
+    /// one of them cemented once (a rattler of the prepared sample never broke out of
+    /// anything), and free to move [`FREE_PATH`] of its largest diameter towards the centre
+    /// of the sample (the borehole's) without touching it. Such a cluster carries nothing,
+    /// so the equilibrium of the rest holds without it. Its breakout is recorded at the loads
+    /// just committed.
+    pub(super) fn take_out_detached(
+        &mut self,
+        report: &mut IncrementReport,
+    ) -> Result<(), NumericError> {
+        if !self.stages[self.state.stage].breakouts {
+            return Ok(());
+        }
+        let clusters = self.detached_clusters();
+        if clusters.is_empty() {
+            return Ok(());
+        }
+        for cluster in &clusters {
+            report.bonds_broken += self.remove_cluster(cluster).bonds_broken;
+        }
+        self.rebuild_workspace()
+    }
+
+    /// The clusters [`Simulation::take_out_detached`] takes out, each in increasing order.
+    fn detached_clusters(&self) -> Vec<Vec<usize>> {
+        let grains = &self.state.grains;
+        let n = grains.len();
+        // Clusters by bonds and touching contacts, each grain's by its smallest member.
+        let mut root: Vec<usize> = (0..n).collect();
+        fn find(root: &mut [usize], mut g: usize) -> usize {
+            while root[g] != g {
+                root[g] = root[root[g]];
+                g = root[g];
+            }
+            g
+        }
+        let mut cemented = vec![false; n];
+        for c in &self.state.contacts.contacts {
+            let Side::Grain(a) = c.pair.a else { continue };
+            if c.bonded || c.broken {
+                (cemented[a], cemented[c.pair.b]) = (true, true);
+            }
+            if c.bonded || c.overlap > 0.0 {
+                let (ra, rb) = (find(&mut root, a), find(&mut root, c.pair.b));
+                root[ra.max(rb)] = ra.min(rb);
+            }
+        }
+        for b in &self.state.contacts.broken_bonds {
+            if let Side::Grain(a) = b.pair.a {
+                (cemented[a], cemented[b.pair.b]) = (true, true);
+            }
+        }
+        let root = root_of(&mut root, n);
+        let mut members: Vec<Vec<usize>> = vec![Vec::new(); n];
+        for g in grains.in_sample() {
+            members[root[g]].push(g);
+        }
+        let Some(body) = (0..n).max_by_key(|&r| (members[r].len(), std::cmp::Reverse(r))) else {
+            return Vec::new();
+        };
+        let in_sample: Vec<usize> = grains.in_sample().collect();
+        let count = in_sample.len() as f64;
+        let centre = in_sample.iter().fold([0.0; 2], |s, &g| {
+            let p = grains.position[g];
+            [s[0] + p[0] / count, s[1] + p[1] / count]
+        });
+        members
+            .into_iter()
+            .enumerate()
+            .filter(|(r, cluster)| *r != body && !cluster.is_empty())
+            .map(|(_, cluster)| cluster)
+            .filter(|cluster| cluster.iter().any(|&g| cemented[g]) && self.breaks_out(cluster))
+            .filter(|cluster| self.free_towards(cluster, centre, &root, body))
+            .collect()
+    }
+
+    /// Whether `cluster` can move [`FREE_PATH`] of its largest diameter towards `centre`
+    /// without touching a grain of the cluster `body` (`root` each grain's cluster).
+    fn free_towards(
+        &self,
+        cluster: &[usize],
+        centre: [f64; 2],
+        root: &[usize],
+        body: usize,
+    ) -> bool {
+        let grains = &self.state.grains;
+        let count = cluster.len() as f64;
+        let middle = cluster.iter().fold([0.0; 2], |s, &g| {
+            let p = grains.position[g];
+            [s[0] + p[0] / count, s[1] + p[1] / count]
+        });
+        let towards = [centre[0] - middle[0], centre[1] - middle[1]];
+        let length = towards[0].hypot(towards[1]);
+        if length == 0.0 {
+            return false;
+        }
+        let e = [towards[0] / length, towards[1] / length];
+        let largest = cluster
+            .iter()
+            .map(|&g| grains.radius[g])
+            .fold(0.0, f64::max);
+        let path = FREE_PATH * 2.0 * largest;
+        cluster.iter().all(|&g| {
+            let (p, r) = (grains.position[g], grains.radius[g]);
+            grains.in_sample().filter(|&h| root[h] == body).all(|h| {
+                // The nearest point of the path from `p` to `p + path e` to the other centre.
+                let c = grains.position[h];
+                let along = ((c[0] - p[0]) * e[0] + (c[1] - p[1]) * e[1]).clamp(0.0, path);
+                let nearest = [p[0] + along * e[0], p[1] + along * e[1]];
+                let gap = (c[0] - nearest[0]).hypot(c[1] - nearest[1]);
+                gap >= r + grains.radius[h]
+            })
+        })
+    }
+
     /// The unknowns, membrane carriers and chains, anchors, friends lists and pattern of the
     /// committed state, made anew.
     pub(super) fn rebuild_workspace(&mut self) -> Result<(), NumericError> {
@@ -122,6 +245,19 @@ impl Simulation {
         let (grains, walls) = (state.grains.clone(), state.walls.clone());
         self.rebuild_friends(&grains, &walls)
     }
+}
+
+/// Each grain's cluster, the roots of `root` fully followed.
+fn root_of(root: &mut [usize], n: usize) -> Vec<usize> {
+    (0..n)
+        .map(|g| {
+            let mut r = g;
+            while root[r] != r {
+                r = root[r];
+            }
+            r
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -182,5 +318,33 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// The clusters that break out in one increment are counted together: one that alone is
+    /// within the share breaks out no more once those before it in the increment fill it,
+    /// and does again in the next increment.
+    #[test]
+    fn breakouts_of_one_increment_count_together_against_the_share() {
+        let mut scene = samples::crystal_biaxial(9, 8, 1e6, 3e6);
+        scene.stages[1].breakouts = true;
+        let grains = build_grains(&scene.grains, Path::new("."), "t").unwrap();
+        let mut sim = Simulation::new(&scene, grains, SolverConfig::default(), "t").unwrap();
+        while sim.state.stage == 0 {
+            sim.run_increment().unwrap();
+        }
+        let n = sim.state.grains.in_sample().count();
+        let share = (super::super::increment::BREAKOUT_SHARE * n as f64).floor() as usize;
+        let first: Vec<usize> = (0..share - 2).collect();
+        let second: Vec<usize> = (share..share + 3).collect();
+        assert!(sim.breaks_out(&first) && sim.breaks_out(&second));
+        sim.take_out(&first).unwrap();
+        assert!(
+            !sim.breaks_out(&second),
+            "{} + {} of {n}",
+            first.len(),
+            second.len()
+        );
+        sim.run_increment().unwrap();
+        assert!(sim.breaks_out(&second));
     }
 }

@@ -5,7 +5,7 @@ use super::anchors::Anchor;
 use super::potential::{ClosingScratch, RotationScratch};
 use super::LoadStep;
 use crate::assembly::{contact_block, frame_turn_force, BlockTangent, DofMap, PairMap, Pattern};
-use crate::contact::{kinematics, Configuration, Contact, ContactLaw, Kinematics};
+use crate::contact::{kinematics, Configuration, Contact, ContactLaw, Kinematics, Response};
 use crate::geometry::{
     rotate, Chain, FriendSet, GrainSet, Membrane, MembraneShape, Pair, Side, WallSet,
 };
@@ -42,6 +42,10 @@ pub struct IncrementEquations<'a> {
     pub carriers: &'a [bool],
     /// Springs on the rigid-body motions no wall holds.
     pub anchors: &'a [Anchor],
+    /// Grains left out of the minimisation as loose (they touched nothing where it started):
+    /// held where they are, their contacts carrying nothing, and moved only out of the way of
+    /// the others ([`IncrementEquations::place_loose`]). Empty when none is.
+    pub loose: &'a mut Vec<bool>,
     /// Relaxation: pairs whose contact opened in tension earlier in this increment, sorted.
     /// Made again, such a contact carries nothing while apart, but keeps its stiffness in the
     /// tangent: an equilibrium that needs it to pull then has it just touching, where a
@@ -225,11 +229,23 @@ impl IncrementEquations<'_> {
         finite(&self.contacts[idx]).map(|_| k)
     }
 
+    /// Whether `pair` touches a grain left out as loose.
+    pub fn touches_loose(&self, pair: Pair) -> bool {
+        !self.loose.is_empty()
+            && (self.loose[pair.b] || matches!(pair.a, Side::Grain(a) if self.loose[a]))
+    }
+
     /// Kinematics and the return map of contact `c` in the current configuration (a glue
-    /// contact keeps the response it was glued with).
+    /// contact keeps the response it was glued with; one with a loose grain carries nothing).
     fn respond_to(&self, c: &mut Contact) -> Kinematics {
         let k = kinematics(c.pair, self.grains, self.walls, self.q);
         if self.is_glue(c.pair) {
+            return k;
+        }
+        if self.touches_loose(c.pair) {
+            c.overlap = k.overlap;
+            c.response = Response::default();
+            c.energy = 0.0;
             return k;
         }
         if self.lagged {
@@ -360,7 +376,7 @@ impl IncrementEquations<'_> {
         // among the engaged.
         let (mut sum_fn, mut energy, mut engaged) = (0.0, 0.0, 0usize);
         for c in self.contacts.iter() {
-            engaged += usize::from(Self::engaged(c));
+            engaged += usize::from(Self::engaged(c) && !self.touches_loose(c.pair));
             if !self.is_glue(c.pair) {
                 sum_fn += c.response.normal_force.abs();
                 energy += c.energy;
@@ -408,7 +424,8 @@ impl IncrementEquations<'_> {
         self.frame_correction = correction;
         self.membrane_loads(residual, tangent.as_deref_mut());
         self.anchor_springs(u, residual, tangent.as_deref_mut());
-        self.glue_springs(u, residual, tangent);
+        self.glue_springs(u, residual, tangent.as_deref_mut());
+        self.hold_loose(residual, tangent);
         if self.lagged {
             let mut loads = std::mem::take(&mut self.loads);
             loads.clear();
@@ -494,6 +511,21 @@ impl IncrementEquations<'_> {
             residual[dof] -= k * u[dof];
             if let Some(t) = tangent.as_deref_mut() {
                 t[self.pattern.diagonal[dof]] += k;
+            }
+        }
+    }
+
+    /// A loose grain's unknowns stay where they are: nothing pushes them, and a stiffness on
+    /// the diagonal keeps their rows regular.
+    fn hold_loose(&self, residual: &mut [f64], mut tangent: Option<&mut [f64]>) {
+        if self.loose.is_empty() {
+            return;
+        }
+        let held = (0..self.dofs.grains).filter(|&g| self.loose[g]);
+        for dof in held.flat_map(|g| self.dofs.grain(g)..self.dofs.grain(g) + self.dofs.per_grain) {
+            residual[dof] = 0.0;
+            if let Some(t) = tangent.as_deref_mut() {
+                t[self.pattern.diagonal[dof]] += self.stiffness_hint * self.unit_stiffness(dof);
             }
         }
     }

@@ -28,9 +28,9 @@ const BRACKET: f64 = 0.005;
 /// with the share its last step changed the load by.
 const BRACKET_CUTS: u32 = 16;
 
-/// Most of the sample's grains a cluster that breaks out may hold: more is the sample failing
-/// as a whole.
-const BREAKOUT_SHARE: f64 = 0.1;
+/// Most of the sample's grains the clusters that break out in one increment may hold: more
+/// is the sample failing as a whole.
+pub(super) const BREAKOUT_SHARE: f64 = 0.1;
 
 /// Share of its radius a grain moved in a descent that found no equilibrium near by which it
 /// counts as carried with the grains that ran away.
@@ -170,13 +170,19 @@ impl Simulation {
     }
 
     /// Whether `cluster`, which no equilibrium near holds, breaks out of the sample in a stage
-    /// that takes breakouts out: at most [`BREAKOUT_SHARE`] of the grains in the sample. A
-    /// larger one is the sample failing as a whole.
-    fn breaks_out(&self, cluster: &[usize]) -> bool {
-        let in_sample = self.state.grains.in_sample().count();
+    /// that takes breakouts out: with the clusters already broken out in this increment, at
+    /// most [`BREAKOUT_SHARE`] of the grains the sample had at its start. More is the sample
+    /// failing as a whole, in one piece or in many.
+    pub(super) fn breaks_out(&self, cluster: &[usize]) -> bool {
+        let increment = self.state.increment + 1;
+        let broken_out: usize = (self.state.breakouts.iter())
+            .filter(|b| b.increment == increment)
+            .map(|b| b.grains.len())
+            .sum();
+        let at_start = self.state.grains.in_sample().count() + broken_out;
         self.stages[self.state.stage].breakouts
             && !cluster.is_empty()
-            && cluster.len() as f64 <= BREAKOUT_SHARE * in_sample as f64
+            && (cluster.len() + broken_out) as f64 <= BREAKOUT_SHARE * at_start as f64
     }
 
     /// The grains the descent that found no equilibrium near carries with `runaway`: those
@@ -291,6 +297,7 @@ impl Simulation {
                 self.index_pairs()?;
                 // The predictor is kept per whole increment: a half step predicts half of it.
                 self.state.last_step = u.iter().map(|v| v / share).collect();
+                self.take_out_detached(report)?;
                 if share < 1.0 {
                     self.keep_if_peak();
                 }
@@ -338,6 +345,21 @@ impl Simulation {
         self.start_step();
         self.start_newton()?;
         self.engage_pairs();
+        let result = self.solve_engaged(step, share, wide, report);
+        self.loose.clear();
+        result
+    }
+
+    /// [`Simulation::solve_with_breaks`] once the pairs are engaged: each minimisation with
+    /// the grains that touch nothing where it starts left out as loose (see [`super::loose`]).
+    fn solve_engaged(
+        &mut self,
+        step: &LoadStep,
+        share: f64,
+        wide: bool,
+        report: &mut IncrementReport,
+    ) -> Result<Option<Vec<f64>>, NumericError> {
+        self.loose = self.find_loose();
         let mut u = self.start_point(step, share)?;
         // Where a minimisation that a cluster broke out of starts again: the step's start,
         // then its last equilibrium.
@@ -359,6 +381,7 @@ impl Simulation {
         while self.break_most_overloaded_bond() {
             report.bonds_broken += 1;
             restart.copy_from_slice(&u);
+            self.loose = self.find_loose();
             let result =
                 self.minimise_breaking_out(step, &mut u, &mut restart, wide, &mut dropped, report);
             match (result, dropped.take()) {
@@ -415,6 +438,7 @@ impl Simulation {
                         self.carriers[g] = false;
                     }
                     u.copy_from_slice(restart);
+                    self.loose.clear();
                     self.dofs = super::dof_map(&self.state, self.material.fixed_rotations);
                     let grains = &self.state.grains;
                     if self.anchors.iter().any(|a| grains.taken_out[a.grain]) {
@@ -546,8 +570,22 @@ impl Simulation {
             report.topology_passes += 1;
             self.stats.counters.topology_passes += 1;
             self.last_residuals.clone_from(&outcome.history);
+            if outcome.converged && self.loose.contains(&true) {
+                // The grains that carry load are in equilibrium: the loose ones are placed
+                // among them where they are now, and the next pass confirms it with them
+                // taken in, or goes on with those that could not be placed so.
+                let failed = self.equations(step).place_loose(u);
+                if failed.is_empty() {
+                    self.loose.clear();
+                }
+                self.renew_lists_if_far(step, u)?;
+                continue;
+            }
             if outcome.converged {
                 return Ok(());
+            }
+            if outcome.changed {
+                continue;
             }
             if !outcome.runaway.is_empty() {
                 return Err(NumericError::NoEquilibrium {

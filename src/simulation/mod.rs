@@ -9,6 +9,7 @@ mod equations;
 mod grain_balance;
 mod increment;
 mod load_step;
+mod loose;
 mod potential;
 mod probe;
 mod relaxation;
@@ -83,6 +84,9 @@ pub struct Simulation {
     carriers: Vec<bool>,
     /// Springs on the rigid-body motions the walls leave free.
     anchors: Vec<Anchor>,
+    /// The grains the minimisation leaves out as loose (see [`loose`]); empty outside a
+    /// minimisation.
+    loose: Vec<bool>,
     /// Pairs whose contact the relaxation lost in this increment, sorted: made again, they
     /// push but do not pull (see [`IncrementEquations::reopened`]).
     reopened: Vec<Pair>,
@@ -166,6 +170,7 @@ impl Simulation {
             chains,
             carriers,
             anchors: anchors(&state.grains, &state.walls, &state.contacts.contacts),
+            loose: Vec::new(),
             reopened: Vec::new(),
             freed: None,
             energy: EnergyBalance::default(),
@@ -399,6 +404,7 @@ impl Simulation {
             chains_found_at: Vec::new(),
             carriers: &self.carriers,
             anchors: &self.anchors,
+            loose: &mut self.loose,
             reopened: &self.reopened,
             dofs: &self.dofs,
             pattern: &self.pattern,

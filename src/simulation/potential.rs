@@ -331,7 +331,7 @@ impl Potential for IncrementEquations<'_> {
         apart.clear();
         apart.extend(
             (self.contacts.iter().enumerate())
-                .filter(|(_, c)| !c.bonded)
+                .filter(|(_, c)| !c.bonded && !self.touches_loose(c.pair))
                 .map(|(i, c)| {
                     (
                         i,
@@ -353,6 +353,10 @@ impl Potential for IncrementEquations<'_> {
         }
         self.closing_scratch = ClosingScratch { apart, end };
         fraction
+    }
+
+    fn place_loose(&mut self, u: &mut [f64]) -> bool {
+        self.loose.contains(&true) && !IncrementEquations::place_loose(self, u).is_empty()
     }
 
     fn needs_new_pattern(&self) -> bool {
@@ -377,7 +381,10 @@ impl Potential for IncrementEquations<'_> {
         first.clear();
         first.resize(self.grains.len() + 1, 0);
         for c in self.contacts.iter() {
-            if self.is_glue(c.pair) || !(c.bonded || c.lag.limit > 0.0) {
+            if self.is_glue(c.pair)
+                || self.touches_loose(c.pair)
+                || !(c.bonded || c.lag.limit > 0.0)
+            {
                 continue;
             }
             let k = kinematics(c.pair, self.grains, self.walls, self.q);
@@ -509,7 +516,8 @@ impl Potential for IncrementEquations<'_> {
         hint: &mut Vec<u8>,
     ) -> bool {
         let g = grain;
-        if self.dofs.grain_held(g) || self.anchors.iter().any(|a| a.grain == g) {
+        let loose = self.loose.get(g) == Some(&true);
+        if loose || self.dofs.grain_held(g) || self.anchors.iter().any(|a| a.grain == g) {
             return false;
         }
         self.configure(u);
@@ -588,7 +596,7 @@ impl Potential for IncrementEquations<'_> {
             (a, c.pair.b)
         };
         let mut neighbours: Vec<(usize, usize)> = (self.contacts.iter())
-            .filter(|c| !c.bonded && c.overlap > 0.0)
+            .filter(|c| !c.bonded && c.overlap > 0.0 && !self.touches_loose(c.pair))
             .filter_map(|c| match grains_of(c) {
                 (Some(a), b) if a == grain => Some((b, 0)),
                 (Some(a), b) if b == grain => Some((a, 0)),

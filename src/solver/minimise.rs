@@ -112,6 +112,11 @@ pub trait Potential {
     /// The grains that moved more than their diameter in this increment.
     fn runaway(&self, u: &[f64]) -> Vec<usize>;
 
+    /// Move each loose grain left out of the minimisation that the step put into another
+    /// the least way out of it; returns whether one could not be moved so and was taken in
+    /// among the others, which changes the potential.
+    fn place_loose(&mut self, u: &mut [f64]) -> bool;
+
     /// The loosely held grains that touch `grain`, as of the last evaluation: those pressed
     /// on it by an unbonded contact that touch or are bonded to at most three bodies in all
     /// (a rattler it touches, a grain wedged against it).
@@ -148,6 +153,9 @@ pub struct MinimiseOutcome {
     /// Grains that moved more than their diameter while the potential kept falling: no
     /// equilibrium near (method note, step 4).
     pub runaway: Vec<usize>,
+    /// Stopped where a loose grain was taken in among the others ([`Potential::place_loose`]):
+    /// the potential changed, and the minimisation starts again from here.
+    pub changed: bool,
 }
 
 /// Armijo's constant: a step is taken when the potential falls by this share of what the
@@ -205,15 +213,22 @@ const INNER: f64 = 0.1;
 /// bond broken), and a lag held from an earlier iterate only drags the steps back towards it.
 const HOLD_BELOW: f64 = 1e-3;
 
-/// Iterations that may pass since the residual was last lowered below the lowest it reached
-/// since it last jumped ([`FRESH_START`]) before a semi-smooth step hands over to the lagged
-/// descent, until that has taken the residual a tenth below the lowest: near a cluster of
-/// grains whose contacts slide (a packing close to a mechanism) the consistent tangent's steps
-/// and the grains' own balances can cycle, each undoing the last, where the lagged descent
-/// moves the cluster on to where it holds. Meanwhile a refreeze that jumps does not call the
-/// semi-smooth steps back ([`LAG_JUMP`]), unless the residual has gone [`FRESH_START`] times
-/// above that lowest: the descent then went elsewhere.
+/// Iterations that may pass since the residual was last lowered to [`CYCLE_FALL`] of the
+/// lowest it reached since it last jumped ([`FRESH_START`]) before a semi-smooth step hands
+/// over to the lagged descent, until that has taken the residual a tenth below the lowest:
+/// near a cluster of grains whose contacts slide (a packing close to a mechanism) the
+/// consistent tangent's steps and the grains' own balances can cycle, each undoing the last,
+/// where the lagged descent moves the cluster on to where it holds. Meanwhile a refreeze that
+/// jumps does not call the semi-smooth steps back ([`LAG_JUMP`]), unless the residual has gone
+/// [`FRESH_START`] times above that lowest: the descent then went elsewhere.
 const CYCLE_STEPS: usize = 6;
+
+/// Share of the lowest residual a step must reach for the residual to count as lowered
+/// ([`CYCLE_STEPS`]): semi-smooth steps near their answer converge superlinearly, so steps
+/// that creep (a rattler just closed on, its contacts at the edge of sliding, each step cut
+/// to a hundredth and the residual falling a thousandth) cycle as much as steps that undo
+/// each other.
+const CYCLE_FALL: f64 = 0.5;
 
 /// A residual this many times the lowest one counts as a new start (a contact made, a bond
 /// broken, a refreeze that moved the limits), from which the lowest is counted again.
@@ -307,7 +322,7 @@ pub fn minimise(
     let mut factored = false;
     // Whether the residual is the law's own: the lag refrozen twice at this iterate.
     let mut confirmed = false;
-    while !out.at_reach {
+    while !out.at_reach && !out.changed {
         if rel <= settings.tolerance {
             if confirmed {
                 out.converged = true;
@@ -427,6 +442,7 @@ pub fn minimise(
             };
             if accepted {
                 u.copy_from_slice(&trial_u);
+                out.changed |= eq.place_loose(u);
                 lambda *= 0.1;
             } else {
                 // Back to the lagged minimisation, regularised harder.
@@ -526,6 +542,10 @@ pub fn minimise(
             (10.0 * lambda).max(1e-6)
         };
         u.copy_from_slice(&trial_u);
+        if eq.place_loose(u) {
+            out.changed = true;
+            break;
+        }
         eq.balance_rotations(u);
         // Far from the answer, refreeze after every step. Near it, refreeze once the lagged
         // problem is solved well enough (an inexact inner solve of the fixed point on the
@@ -633,9 +653,10 @@ fn refrozen(
 }
 
 /// The lowest residual since the last new start ([`FRESH_START`]) and the iteration that
-/// reached it, after iteration `iteration` left the residual at `rel`.
+/// reached it, after iteration `iteration` left the residual at `rel`; a residual counts as
+/// lower only [`CYCLE_FALL`] below it.
 fn lowest_since_start(lowest: (f64, usize), rel: f64, iteration: usize) -> (f64, usize) {
-    if rel < lowest.0 || rel > FRESH_START * lowest.0 {
+    if rel < CYCLE_FALL * lowest.0 || rel > FRESH_START * lowest.0 {
         (rel, iteration)
     } else {
         lowest
