@@ -164,7 +164,7 @@ impl Simulation {
                 (cemented[a], cemented[b.pair.b]) = (true, true);
             }
         }
-        let root = root_of(&mut root, n);
+        let root: Vec<usize> = (0..n).map(|g| find(&mut root, g)).collect();
         let mut members: Vec<Vec<usize>> = vec![Vec::new(); n];
         for g in grains.in_sample() {
             members[root[g]].push(g);
@@ -245,19 +245,6 @@ impl Simulation {
         let (grains, walls) = (state.grains.clone(), state.walls.clone());
         self.rebuild_friends(&grains, &walls)
     }
-}
-
-/// Each grain's cluster, the roots of `root` fully followed.
-fn root_of(root: &mut [usize], n: usize) -> Vec<usize> {
-    (0..n)
-        .map(|g| {
-            let mut r = g;
-            while root[r] != r {
-                r = root[r];
-            }
-            r
-        })
-        .collect()
 }
 
 #[cfg(test)]
