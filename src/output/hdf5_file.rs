@@ -9,7 +9,8 @@
 //! increment, the summary, the tidying on resume) is made to the twin, which is flushed,
 //! closed and swapped with the file in one atomic rename (`renameat2`'s `RENAME_EXCHANGE`).
 //! A new file is written whole beside it and renamed over it. The old file, now the twin, is then given the same change on another
-//! thread while the run goes on, so the two are equal again by the next change. At every
+//! thread while the run goes on, so the two are equal again by the next change, and kept
+//! open for it. At every
 //! moment `NAME.h5` is the file as it was after one whole change, and no change copies the
 //! file (copying the whole file at every increment made writing one cost as much as all
 //! before it): the file is copied only to make a twin not known to be equal, at a run's
@@ -186,8 +187,9 @@ struct Sizes {
 enum Twin {
     /// Not known to hold the file as it is: the next change copies the file first.
     Stale,
-    /// Being given the file's last change on another thread; in step once that returns true.
-    CatchingUp(JoinHandle<bool>),
+    /// Being given the file's last change on another thread, which hands it on open, in step
+    /// with the file, for the next change to be made to (none where it could not be).
+    CatchingUp(JoinHandle<Option<File>>),
 }
 
 impl ResultFile {
@@ -307,11 +309,10 @@ impl ResultFile {
     ) -> Result<T, Error> {
         let twin = side_path(&self.path);
         let in_step = match std::mem::replace(&mut self.twin, Twin::Stale) {
-            Twin::Stale => false,
-            Twin::CatchingUp(done) => done.join().unwrap_or(false),
+            Twin::Stale => None,
+            Twin::CatchingUp(done) => done.join().ok().flatten(),
         };
-        // A twin that a reader still holds open does not open for writing.
-        let file = match in_step.then(|| File::open_rw(&twin).ok()).flatten() {
+        let file = match in_step {
             Some(file) => file,
             None => {
                 fresh_copy(&self.path, &twin)?;
@@ -322,9 +323,11 @@ impl ResultFile {
         let value = write(&file).map_err(blame)?;
         close(file, &twin)?;
         if swap(&twin, &self.path)? {
+            // Kept open for the next change, which then neither opens it nor reads its
+            // metadata anew. A twin that a reader still holds open does not open for writing.
             let catch_up = std::thread::Builder::new().spawn(move || {
-                File::open_rw(&twin)
-                    .is_ok_and(|file| write(&file).is_ok() && close(file, &twin).is_ok())
+                let file = File::open_rw(&twin).ok()?;
+                write(&file).is_ok().then_some(file)
             });
             // No thread to be had: the next change starts from a copy.
             if let Ok(done) = catch_up {
