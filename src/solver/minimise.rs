@@ -318,6 +318,8 @@ pub fn minimise(
     let (mut consistent, mut gmres) = (Vec::new(), krylov::Gmres::default());
     // The grain last moved to its own equilibrium, with the states of its contacts there.
     let mut balanced: (usize, Vec<u8>) = (usize::MAX, Vec::new());
+    // The grain the lagged descent last balanced, and the residual's 2-norm it left.
+    let mut last_balance = (usize::MAX, f64::INFINITY);
     // Whether the linear solver holds a factor of a Hessian of this minimisation.
     let mut factored = false;
     // Whether the residual is the law's own: the lag refrozen twice at this iterate.
@@ -557,15 +559,24 @@ pub fn minimise(
         energy = eq.evaluate(u, &mut residual, Some(values), frozen)?;
         (rel, worst, merit) = eq.residual_norm(&residual);
         if frozen {
+            let stalls_before = stalls;
             stalls = lag_stalls(stalls, merit, true_merit);
             true_merit = merit;
             if merit > LAG_JUMP * trial_merit && !cycled {
                 // The lag, not the model, is what stalls: semi-smooth steps are for that.
                 semismooth_below = f64::INFINITY;
             }
+            let grain = worst;
             if balance_worst(eq, u, &residual, rel, worst, settings, &mut balanced) {
                 (energy, (rel, worst, merit)) = refrozen(eq, u, &mut residual, values)?;
                 true_merit = merit;
+                // The same grain balanced again, the residual left above where its last
+                // balance left it: the step and the balance undo each other, and the lag
+                // stalls however much each step lowers the residual the balance raised.
+                if last_balance.0 == grain && merit > last_balance.1 {
+                    stalls = stalls_before + 1;
+                }
+                last_balance = (grain, merit);
             }
         }
         semismooth = (rel < SEMISMOOTH_NEAR || (stalls >= LAG_STALLS && rel < SEMISMOOTH_BELOW))
