@@ -531,10 +531,11 @@ impl Simulation {
         u: &mut [f64],
         report: &mut IncrementReport,
     ) -> Result<(), NumericError> {
-        let settings = MinimiseSettings {
+        let mut settings = MinimiseSettings {
             tolerance: self.config.tolerance,
             lambda_min: self.config.lambda_min,
             max_iterations: self.config.max_iterations,
+            lambda_start: None,
         };
         // Chain changes are counted over the passes: a chain that flips between two grains
         // makes a pattern that couples one and not the other, and would end every pass.
@@ -564,6 +565,7 @@ impl Simulation {
             self.take_back(stats, timers, values);
             self.linear = linear;
             let outcome = result?;
+            settings.lambda_start = outcome.at_reach.then_some(outcome.lambda);
             report.newton_iterations += outcome.iterations;
             report.residual = outcome.residual;
             worst_grain = outcome.worst_grain;

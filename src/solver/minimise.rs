@@ -132,6 +132,10 @@ pub struct MinimiseSettings {
     pub lambda_min: f64,
     /// Iterations allowed.
     pub max_iterations: usize,
+    /// Levenberg-Marquardt factor to start from, where this minimisation goes on from one
+    /// that stopped at the edge of the friends lists: the potential is the same, and so is
+    /// how far its Newton model holds (none: the factor every minimisation starts with).
+    pub lambda_start: Option<f64>,
 }
 
 /// How a minimisation ended.
@@ -156,6 +160,8 @@ pub struct MinimiseOutcome {
     /// Stopped where a loose grain was taken in among the others ([`Potential::place_loose`]):
     /// the potential changed, and the minimisation starts again from here.
     pub changed: bool,
+    /// Levenberg-Marquardt factor the minimisation ended with.
+    pub lambda: f64,
 }
 
 /// Armijo's constant: a step is taken when the potential falls by this share of what the
@@ -183,8 +189,10 @@ const FLOPPY_ROTATION: f64 = 1e-2;
 const LAMBDA_START: f64 = 1e-4;
 
 /// Relative residual below which a lag that stops converging hands over to semi-smooth
-/// Newton steps.
-const SEMISMOOTH_BELOW: f64 = 1e-2;
+/// Newton steps, and below which the worst grain is balanced on its own: after a bond breaks
+/// near failure the lag refrozen at every step wanders between 1e-2 and 1e-1 for tens of
+/// steps, where the consistent tangent's steps converge.
+const SEMISMOOTH_BELOW: f64 = 1e-1;
 
 /// Relative residual below which every step is a semi-smooth one: near the answer the
 /// contacts' states have settled, and Newton on the true residual converges in a step or two
@@ -301,7 +309,7 @@ pub fn minimise(
     }
     // Levenberg-Marquardt factor, raised after steps the line search had to cut hard and
     // lowered after full ones: it costs no factorisation of its own.
-    let mut lambda = LAMBDA_START;
+    let mut lambda = settings.lambda_start.unwrap_or(LAMBDA_START);
     let mut frozen = true;
     // Accepted steps since the lag was last refrozen.
     let mut held = 0usize;
@@ -602,6 +610,7 @@ pub fn minimise(
     }
     out.residual = rel;
     out.worst_grain = worst;
+    out.lambda = lambda;
     Ok(out)
 }
 
