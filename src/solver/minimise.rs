@@ -190,8 +190,8 @@ const LAMBDA_START: f64 = 1e-4;
 
 /// Relative residual below which a lag that stops converging hands over to semi-smooth
 /// Newton steps, and below which the worst grain is balanced on its own: after a bond breaks
-/// near failure the lag refrozen at every step wanders between 1e-2 and 1e-1 for tens of
-/// steps, where the consistent tangent's steps converge.
+/// the lag, refrozen at every step, can wander well above [`SEMISMOOTH_NEAR`] where the
+/// consistent tangent's steps converge.
 const SEMISMOOTH_BELOW: f64 = 1e-1;
 
 /// Relative residual below which every step is a semi-smooth one: near the answer the
