@@ -212,7 +212,7 @@ pub fn run_to_end(
         // Every stage's end is written too: a test's estimate starts from it.
         let stage_end = sim.state.stage_increment == 0;
         if report.increment % every.max(1) == 0 || stage_end || sim.is_finished() {
-            sim.refresh_factorisation();
+            sim.refresh_workspace()?;
             if let Some(f) = file.as_deref_mut() {
                 let start = Instant::now();
                 f.write_increment(&sim.state, &report, &sim.stats)?;

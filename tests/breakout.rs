@@ -104,7 +104,7 @@ fn step(sim: &mut Simulation, file: &mut ResultFile) {
     let report = sim
         .run_increment()
         .unwrap_or_else(|e| panic!("increment {}: {e}", sim.state.increment + 1));
-    sim.refresh_factorisation();
+    sim.refresh_workspace().unwrap();
     file.write_increment(&sim.state, &report, &sim.stats)
         .unwrap();
 }

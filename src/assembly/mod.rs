@@ -307,6 +307,8 @@ pub struct Pattern {
     pub diagonal: Vec<usize>,
     /// Value index of the (wall, span wall) entries of follower loads: `(row, col, slot)`.
     pub couplings: Vec<(usize, usize, usize)>,
+    /// The grain links outside the friends lists it was built with (membrane chains).
+    pub chain_links: Vec<(usize, usize)>,
 }
 
 impl Pattern {
@@ -393,6 +395,7 @@ impl Pattern {
             start,
             diagonal,
             couplings,
+            chain_links: links.to_vec(),
         }
     }
 

@@ -40,6 +40,9 @@ pub struct FriendSet {
     pub span: f64,
     /// Gap below which two surfaces are friends (m).
     pub skin: f64,
+    /// The pairs farther apart than the skin that the lists hold because they were contacts
+    /// when the lists were made, sorted.
+    pub held: Vec<Pair>,
 }
 
 impl FriendSet {
@@ -90,6 +93,7 @@ impl FriendSet {
                 }
             },
             skin,
+            held: Vec::new(),
         }
     }
 

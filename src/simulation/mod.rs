@@ -108,8 +108,10 @@ const EXTENT_CHANGE: f64 = 1e-10;
 
 impl Simulation {
     /// A simulation from a committed state (a fresh one from [`Simulation::new`], or one read back to
-    /// resume). The workspace is rebuilt: friends lists from the state's reference positions,
-    /// so the pattern is the one the interrupted run had.
+    /// resume). The workspace is rebuilt: friends lists from the state's reference positions
+    /// holding the committed contacts, the membranes' chains of the committed state: the
+    /// workspace the interrupted run had when it wrote the state
+    /// ([`Simulation::refresh_workspace`]).
     pub fn from_state(
         name: String,
         config: SolverConfig,
@@ -121,32 +123,8 @@ impl Simulation {
         let law = material.law();
         let r_mean = state.grains.mean_radius();
         let dofs = dof_map(&state, material.fixed_rotations);
-        // The friends lists as they were when last made, so the pattern is the same.
-        let mut at_reference = state.grains.clone();
-        at_reference.position.clone_from(&state.friends_reference);
-        let mut walls_at_reference = state.walls.clone();
-        for (w, r) in walls_at_reference
-            .walls
-            .iter_mut()
-            .zip(&state.friends_wall_reference)
-        {
-            w.position = r[0];
-            w.slide = r[1];
-        }
-        let friends = friends_around(
-            &at_reference,
-            &walls_at_reference,
-            config.skin * r_mean,
-            &pairs_of(&state.contacts),
-        );
-        let carriers = membrane_carriers(&state.grains, &state.contacts.contacts);
-        let chains = chains(
-            &state.membranes,
-            &state.grains.position,
-            &state.grains.radius,
-            &carriers,
-            &state.grains.taken_out,
-        );
+        let friends = resumed_friends(&state, config.skin * r_mean);
+        let (carriers, chains) = committed_chains(&state);
         let links: Vec<(usize, usize)> = chains.iter().flat_map(Chain::links).collect();
         let pattern = Arc::new(Pattern::build(&friends, &dofs, &state.walls, &links));
         let mut sim = Simulation {
@@ -204,10 +182,36 @@ impl Simulation {
         &self.dofs
     }
 
-    /// Drop the numeric factorisation, so the next increment starts from a fresh one. Called
-    /// when the state is written: a run resumed from there then repeats the same arithmetic.
-    pub fn refresh_factorisation(&mut self) {
+    /// Make the workspace the one a run resumed from the committed state starts with
+    /// ([`Simulation::from_state`]), and drop the numeric factorisation. Called when the state
+    /// is written, so that a run resumed from there repeats the same arithmetic. The running
+    /// lists may still hold pairs that were contacts when they were made, and the pattern the
+    /// links of earlier membrane chains; a resumed run has neither, and a pattern one entry
+    /// apart factorises in another order: the two runs would part by round-off, and a cascade
+    /// of bond breaks would go another way.
+    pub fn refresh_workspace(&mut self) -> Result<(), NumericError> {
+        let start = Instant::now();
+        let state = &self.state;
+        // A resumed run's lists are these unless they hold a pair that is no longer a contact
+        // or a wall has turned since they were made (they are made with the walls' turn now).
+        let turned =
+            (state.walls.walls.iter().zip(&self.friends.wall_turn)).any(|(w, &t)| w.turn != t);
+        let contacts = pairs_of(&state.contacts);
+        let lost = (self.friends.held.iter()).any(|p| contacts.binary_search(p).is_err());
+        let (carriers, chains) = committed_chains(state);
+        let links: Vec<(usize, usize)> = chains.iter().flat_map(Chain::links).collect();
+        let renew = turned || lost || links != self.pattern.chain_links;
+        if turned || lost {
+            self.friends = resumed_friends(state, self.config.skin * self.r_mean);
+        }
+        (self.carriers, self.chains) = (carriers, chains);
         self.linear.invalidate();
+        self.stats.timers.detection += secs(start);
+        if renew {
+            self.install_pattern()
+        } else {
+            Ok(())
+        }
     }
 
     /// One load increment, as the pipeline reads: apply the increment, then solve it (the
@@ -667,6 +671,41 @@ fn pairs_of(set: &ContactSet) -> Vec<Pair> {
     set.contacts.iter().map(|c| c.pair).collect()
 }
 
+/// The friends lists a run resumed from `state` starts with: made where the grains and walls
+/// were when they were last made (`friends_reference`), holding every committed contact.
+fn resumed_friends(state: &State, skin: f64) -> FriendSet {
+    let mut at_reference = state.grains.clone();
+    at_reference.position.clone_from(&state.friends_reference);
+    let mut walls_at_reference = state.walls.clone();
+    for (w, r) in walls_at_reference
+        .walls
+        .iter_mut()
+        .zip(&state.friends_wall_reference)
+    {
+        w.position = r[0];
+        w.slide = r[1];
+    }
+    friends_around(
+        &at_reference,
+        &walls_at_reference,
+        skin,
+        &pairs_of(&state.contacts),
+    )
+}
+
+/// The grains the membranes may lie on in the committed state, and the chains on them.
+fn committed_chains(state: &State) -> (Vec<bool>, Vec<Chain>) {
+    let carriers = membrane_carriers(&state.grains, &state.contacts.contacts);
+    let chains = chains(
+        &state.membranes,
+        &state.grains.position,
+        &state.grains.radius,
+        &carriers,
+        &state.grains.taken_out,
+    );
+    (carriers, chains)
+}
+
 /// Friends lists around the given positions that also hold every pair of `required`:
 /// contacts cannot be outside the lists in practice (the lists are rebuilt before anything
 /// moves half the skin), but a bond stretched past the skin would be.
@@ -678,6 +717,7 @@ fn friends_around(grains: &GrainSet, walls: &WallSet, skin: f64, required: &[Pai
         .filter(|p| friends.pairs.binary_search(p).is_err())
         .collect();
     if !missing.is_empty() {
+        friends.held.clone_from(&missing);
         friends.pairs.append(&mut missing);
         friends.pairs.sort();
     }
