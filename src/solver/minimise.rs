@@ -231,6 +231,13 @@ const HOLD_BELOW: f64 = 1e-3;
 /// [`FRESH_START`] times above that lowest: the descent then went elsewhere.
 const CYCLE_STEPS: usize = 6;
 
+/// Lagged steps after the semi-smooth steps were held off (a step of theirs failed, or they
+/// cycled) without the residual lowered ([`CYCLE_FALL`]), after which they may be tried
+/// again at once: where the lagged descent crawls too (a cluster whose contacts switch
+/// between sticking and sliding from step to step, the lag held), waiting for it to go a
+/// tenth below where they stopped can take hundreds of steps.
+const LAG_PATIENCE: usize = 40;
+
 /// Share of the lowest residual a step must reach for the residual to count as lowered
 /// ([`CYCLE_STEPS`]): semi-smooth steps near their answer converge superlinearly, so steps
 /// that creep (a rattler just closed on, its contacts at the edge of sliding, each step cut
@@ -317,6 +324,8 @@ pub fn minimise(
     // again only once the lagged descent has taken the residual a tenth further down.
     let (mut semismooth, mut stalls) = (false, 0usize);
     let mut semismooth_below = f64::INFINITY;
+    // The iteration at which the semi-smooth steps were last held off below a residual.
+    let mut held_off_at = 0usize;
     // Where the last semi-smooth step that raised the residual at a closing pair started.
     let mut rise_from = f64::INFINITY;
     // The lowest residual since the last new start and the iteration that reached it; whether
@@ -421,6 +430,7 @@ pub fn minimise(
                 // the lagged minimisation.
                 (semismooth, stalls) = (false, 0);
                 semismooth_below = RETRY_SHARE * rel;
+                held_off_at = out.iterations;
                 (energy, (rel, worst, merit)) = refrozen(eq, u, &mut residual, values)?;
                 true_merit = merit;
                 continue;
@@ -458,6 +468,7 @@ pub fn minimise(
                 // Back to the lagged minimisation, regularised harder.
                 semismooth = false;
                 semismooth_below = RETRY_SHARE * rel;
+                held_off_at = out.iterations;
                 lambda = (100.0 * lambda).max(1e-4);
             }
             (energy, (rel, worst, merit)) = refrozen(eq, u, &mut residual, values)?;
@@ -471,6 +482,7 @@ pub fn minimise(
             if out.iterations - lowest.1 >= CYCLE_STEPS {
                 (semismooth, cycled) = (false, true);
                 semismooth_below = RETRY_SHARE * lowest.0;
+                held_off_at = out.iterations;
             }
             if eq.needs_new_pattern() || (accepted && alpha == reach && reach < 1.0) {
                 out.at_reach = true;
@@ -597,6 +609,13 @@ pub fn minimise(
             semismooth_below = f64::INFINITY;
         }
         lowest = lowest_since_start(lowest, rel, out.iterations);
+        if semismooth_below.is_finite()
+            && out.iterations - held_off_at.max(lowest.1) >= LAG_PATIENCE
+        {
+            // The lagged descent has not done what the semi-smooth steps wait for.
+            cycled = false;
+            semismooth_below = f64::INFINITY;
+        }
         out.history.push(rel);
         if eq.needs_new_pattern() || (alpha == reach && reach < 1.0) {
             out.at_reach = true;
