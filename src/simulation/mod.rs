@@ -472,17 +472,26 @@ impl Simulation {
     }
 
     /// The pattern of the friends lists and membrane links, with its value buffer and its
-    /// symbolic factorisation.
+    /// symbolic factorisation. A pattern of the same entries as the last keeps its analysis,
+    /// which the entries alone decide: lists made anew around grains that moved little, and a
+    /// chain whose new links are friends pairs already, most often leave the entries as they
+    /// were.
     fn install_pattern(&mut self) -> Result<(), NumericError> {
         let links: Vec<(usize, usize)> = self.chains.iter().flat_map(Chain::links).collect();
-        self.pattern = Arc::new(Pattern::build(
-            &self.friends,
-            &self.dofs,
-            &self.state.walls,
-            &links,
-        ));
+        let pattern = Pattern::build(&self.friends, &self.dofs, &self.state.walls, &links);
+        let (old, new) = (&self.pattern.symbolic, &pattern.symbolic);
+        let same = self.linear.is_analysed()
+            && old.nrows() == new.nrows()
+            && old.col_ptr() == new.col_ptr()
+            && old.row_idx() == new.row_idx();
+        self.pattern = Arc::new(pattern);
         self.values = vec![0.0; self.pattern.nnz()];
-        self.analyse_pattern()
+        if same {
+            self.linear.invalidate();
+            self.index_pairs()
+        } else {
+            self.analyse_pattern()
+        }
     }
 
     /// Each membrane's chain on the grains where they are at the current iterate (or, when

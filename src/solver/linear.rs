@@ -338,6 +338,11 @@ impl LinearSolver {
         self.factorized = false;
     }
 
+    /// Whether a pattern has been analysed.
+    pub fn is_analysed(&self) -> bool {
+        self.cholesky.is_some()
+    }
+
     /// Whether a factorisation is ready for solves.
     pub fn is_factorized(&self) -> bool {
         self.factorized
