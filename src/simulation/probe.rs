@@ -10,7 +10,8 @@ use std::sync::Arc;
 impl Simulation {
     /// `f` of the potential the next increment's minimisation lowers, as its first iteration
     /// meets it (every friends-list pair engaged, the lag fresh), and of its pattern. The
-    /// simulation is left ready for that increment.
+    /// simulation is left ready for that increment; it must have one ahead
+    /// ([`Simulation::is_finished`] false).
     pub fn with_next_potential<R>(
         &mut self,
         f: impl FnOnce(&mut dyn Potential, &Pattern) -> R,
@@ -26,7 +27,7 @@ impl Simulation {
     /// pattern: the projected Hessian of its potential at its starting point, regularised as
     /// the minimisation regularises it with `lambda` (at least the scene's `lambda_min`).
     /// For timing the factorisations of a sample's own matrix (`examples/factorisation.rs`);
-    /// the simulation is left ready for that increment.
+    /// the simulation is left ready for that increment, which it must have ahead.
     pub fn next_tangent(&mut self, lambda: f64) -> Result<(Arc<Pattern>, Vec<f64>), NumericError> {
         let step = self.start_next_increment()?;
         let u = self.start_point(&step, 1.0)?;
