@@ -46,3 +46,15 @@ fn the_next_tangent_is_symmetric_and_factorises() {
     let report = sim.run_increment().unwrap();
     assert!(report.residual <= sim.config.tolerance, "{report:?}");
 }
+
+#[test]
+fn a_simulation_whose_load_program_is_done_has_no_next_tangent() {
+    let scene = samples::crystal_biaxial(11, 7, 1e6, 3e6);
+    let grains = build_grains(&scene.grains, Path::new("."), "t").unwrap();
+    let mut sim = Simulation::new(&scene, grains, SolverConfig::default(), "t").unwrap();
+    sim.state.stage = sim.stages.len();
+    match sim.next_tangent(0.0) {
+        Err(grainstat::Error::Input(e)) => assert_eq!(e.key.as_deref(), Some("stages")),
+        other => panic!("expected an input error, got {:?}", other.map(|_| ())),
+    }
+}

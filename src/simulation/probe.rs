@@ -4,18 +4,17 @@
 use super::{LoadStep, Simulation};
 use crate::assembly::Pattern;
 use crate::solver::minimise::{self, Potential};
-use crate::NumericError;
+use crate::{Error, InputError};
 use std::sync::Arc;
 
 impl Simulation {
     /// `f` of the potential the next increment's minimisation lowers, as its first iteration
     /// meets it (every friends-list pair engaged, the lag fresh), and of its pattern. The
-    /// simulation is left ready for that increment; it must have one ahead
-    /// ([`Simulation::is_finished`] false).
+    /// simulation is left ready for that increment.
     pub fn with_next_potential<R>(
         &mut self,
         f: impl FnOnce(&mut dyn Potential, &Pattern) -> R,
-    ) -> Result<R, NumericError> {
+    ) -> Result<R, Error> {
         let step = self.start_next_increment()?;
         self.fresh_lag();
         let pattern = Arc::clone(&self.pattern);
@@ -27,8 +26,8 @@ impl Simulation {
     /// pattern: the projected Hessian of its potential at its starting point, regularised as
     /// the minimisation regularises it with `lambda` (at least the scene's `lambda_min`).
     /// For timing the factorisations of a sample's own matrix (`examples/factorisation.rs`);
-    /// the simulation is left ready for that increment, which it must have ahead.
-    pub fn next_tangent(&mut self, lambda: f64) -> Result<(Arc<Pattern>, Vec<f64>), NumericError> {
+    /// the simulation is left ready for that increment.
+    pub fn next_tangent(&mut self, lambda: f64) -> Result<(Arc<Pattern>, Vec<f64>), Error> {
         let step = self.start_next_increment()?;
         let u = self.start_point(&step, 1.0)?;
         let pattern = Arc::clone(&self.pattern);
@@ -47,7 +46,16 @@ impl Simulation {
 
     /// The next increment's controls, glue and load step applied, every friends-list pair
     /// engaged: where its minimisation starts.
-    fn start_next_increment(&mut self) -> Result<LoadStep, NumericError> {
+    /// A simulation whose load program is done has none: that is refused.
+    fn start_next_increment(&mut self) -> Result<LoadStep, Error> {
+        if self.is_finished() {
+            return Err(InputError::new(
+                &self.name,
+                "the load program is done: no increment follows to start",
+            )
+            .at_key("stages")
+            .into());
+        }
         self.apply_stage_controls()?;
         self.apply_glue()?;
         let step = self.next_load_step();
