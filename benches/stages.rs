@@ -1,6 +1,6 @@
 //! The stages of a load increment by sample size and number of threads: friends lists,
 //! pattern build, the return map, residual and tangent (the return map and the assembly),
-//! numeric Cholesky factorisation, and one whole increment by the global solver; and one
+//! numeric Cholesky factorisation, one solve with its factor, and one whole increment by the global solver; and one
 //! increment by the relaxation (20 sweeps, the thesis's n_i), which goes grain by grain on one
 //! thread.
 //!
@@ -178,6 +178,17 @@ fn stages(c: &mut Criterion) {
             pool.install(|| linear.analyse(&pattern.symbolic, &mut stats).unwrap());
             group.bench_function(id("factorisation", *threads), |b| {
                 b.iter(|| pool.install(|| linear.factorize(matrix, &mut stats).unwrap()))
+            });
+            // One solve with the factor, as a Newton step and each GMRES iteration make.
+            let rhs: Vec<f64> = (0..values.len().min(pattern.symbolic.ncols()))
+                .map(|k| (k as f64).sin())
+                .collect();
+            let mut x = rhs.clone();
+            group.bench_function(id("solve", *threads), |b| {
+                b.iter(|| {
+                    x.copy_from_slice(&rhs);
+                    pool.install(|| linear.solve_in_place(&mut x, &mut stats));
+                })
             });
         }
 

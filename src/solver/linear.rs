@@ -63,8 +63,10 @@ struct Cholesky {
     values: Vec<f64>,
     /// A right-hand side in the pivots' order.
     work: Vec<f64>,
-    /// The entries of the right-hand side below a supernode, gathered.
+    /// The entries of the right-hand side below a supernode, gathered, and each of its
+    /// columns' products with them (`solve_llt`).
     below: Vec<f64>,
+    column_dots: Vec<f64>,
     /// The values of `L L^T`, and those of the `L D L^T` of the stability indicator
     /// (allocated when first needed).
     llt: Vec<f64>,
@@ -103,6 +105,7 @@ impl Cholesky {
             diagonal,
             work: vec![0.0; n],
             below: Vec::new(),
+            column_dots: Vec::new(),
             symbolic,
         })
     }
@@ -134,12 +137,15 @@ fn supernodes(symbolic: &SymbolicCholesky<usize>) -> &SymbolicSupernodalCholesky
 /// With one right-hand side this is bound by reading `L` once each way; faer's own solve
 /// calls its dense kernels once per supernode, which costs more than the arithmetic where
 /// supernodes are small (0.11 against 0.16 ms a solve on the 1,000-grain sand biaxial,
-/// docs/minimise.md, "Per-iteration cost"). Sequential at every size.
+/// docs/minimise.md, "Per-iteration cost"). Sequential at every size. Backward, the
+/// columns' products with the rows below are summed four columns at a time, each sum in the
+/// order one column alone makes it (the same values to the last bit), so that the four sums
+/// overlap instead of waiting on each other's additions.
 fn solve_llt(
     symbolic: &SymbolicSupernodalCholesky<usize>,
     l: &[f64],
     x: &mut [f64],
-    below: &mut Vec<f64>,
+    (below, dots): (&mut Vec<f64>, &mut Vec<f64>),
 ) {
     let (begin, end) = (symbolic.supernode_begin(), symbolic.supernode_end());
     let (row_ptr, val_ptr, rows) = (
@@ -182,14 +188,55 @@ fn solve_llt(
         let (start, size, height, values, pattern) = block(s);
         below.clear();
         below.extend(pattern.iter().map(|&i| x[i]));
+        dots.clear();
+        let below_of = |j: usize| &values[j * height + size..(j + 1) * height];
+        let mut j = 0;
+        while j + 4 <= size {
+            // Started from -0.0, as `Iterator::sum` starts.
+            let mut sums = [-0.0f64; 4];
+            let columns = (
+                below_of(j),
+                below_of(j + 1),
+                below_of(j + 2),
+                below_of(j + 3),
+            );
+            let rows = columns
+                .0
+                .iter()
+                .zip(columns.1)
+                .zip(columns.2)
+                .zip(columns.3);
+            for ((((l0, l1), l2), l3), b) in rows.zip(below.iter()) {
+                sums[0] += l0 * b;
+                sums[1] += l1 * b;
+                sums[2] += l2 * b;
+                sums[3] += l3 * b;
+            }
+            dots.extend(sums);
+            j += 4;
+        }
+        while j + 2 <= size {
+            let mut sums = [-0.0f64; 2];
+            for ((l0, l1), b) in below_of(j).iter().zip(below_of(j + 1)).zip(below.iter()) {
+                sums[0] += l0 * b;
+                sums[1] += l1 * b;
+            }
+            dots.extend(sums);
+            j += 2;
+        }
+        if j < size {
+            dots.push(
+                below_of(j)
+                    .iter()
+                    .zip(below.iter())
+                    .map(|(l, b)| l * b)
+                    .sum(),
+            );
+        }
         for j in (0..size).rev() {
             let column = &values[j * height..(j + 1) * height];
             let mut sum = x[start + j];
-            sum -= column[size..]
-                .iter()
-                .zip(below.iter())
-                .map(|(lij, b)| lij * b)
-                .sum::<f64>();
+            sum -= dots[j];
             sum -= column[j + 1..size]
                 .iter()
                 .zip(&x[start + j + 1..start + size])
@@ -357,7 +404,8 @@ impl LinearSolver {
             for (w, &dof) in c.work.iter_mut().zip(forward) {
                 *w = rhs[dof];
             }
-            solve_llt(supernodes(&c.symbolic), &c.llt, &mut c.work, &mut c.below);
+            let scratch = (&mut c.below, &mut c.column_dots);
+            solve_llt(supernodes(&c.symbolic), &c.llt, &mut c.work, scratch);
             for (r, &pivot) in rhs.iter_mut().zip(inverse) {
                 *r = c.work[pivot];
             }
