@@ -43,6 +43,7 @@ pub mod samples;
 pub mod scene;
 pub mod simulation;
 pub mod solver;
+pub mod spread;
 pub mod state;
 pub mod study;
 pub mod sweep;
