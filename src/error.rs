@@ -126,6 +126,24 @@ pub enum NumericError {
         /// How much the step that found no equilibrium changed the load, as a share of it.
         load_change: f64,
     },
+    /// The first cluster broke out of the sample in a stage that ends there
+    /// ([`crate::scene::Stage::until_breakout`]): the cylinder test's functional failure
+    /// (thesis 4.4.2), its load bracketed as any breakout's is.
+    #[error(
+        "a cluster of {} grain(s) broke out in increment {increment} (first: {}), within \
+         {:.2}% of the load carried",
+        grains.len(),
+        grains.iter().take(8).map(|g| g.to_string()).collect::<Vec<_>>().join(", "),
+        100.0 * load_change
+    )]
+    BrokeOut {
+        /// The load increment (1-based).
+        increment: usize,
+        /// The cluster's grains.
+        grains: Vec<usize>,
+        /// How much the step it broke out in changed the load, as a share of it.
+        load_change: f64,
+    },
     /// A stage produced NaN or infinity.
     #[error("{what} is not finite at {place}")]
     NotFinite {

@@ -73,6 +73,9 @@ pub enum RunEnd {
 pub enum FailureCause {
     /// The increment found no equilibrium: the solver's error.
     NoEquilibrium(NumericError),
+    /// The first cluster broke out in a stage that ends there: the cylinder test's
+    /// functional failure ([`crate::scene::Stage::until_breakout`]).
+    Breakout(NumericError),
     /// The force on a pushed wall fell below a fraction of its peak
     /// ([`crate::scene::Stage::failure_drop`]).
     LoadDrop {
@@ -88,7 +91,9 @@ pub enum FailureCause {
 impl std::fmt::Display for FailureCause {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
-            FailureCause::NoEquilibrium(error) => write!(f, "{error}"),
+            FailureCause::NoEquilibrium(error) | FailureCause::Breakout(error) => {
+                write!(f, "{error}")
+            }
             FailureCause::LoadDrop { wall, peak, force } => write!(
                 f,
                 "the force on `{wall}` fell to {force:.4e} N from its peak of {peak:.4e} N"
@@ -128,9 +133,13 @@ impl Failure {
 
 impl std::fmt::Display for Failure {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let what = match self.cause {
+            FailureCause::Breakout(_) => "reached functional failure, its first breakout,",
+            _ => "failed",
+        };
         write!(
             f,
-            "the sample failed in increment {} (stage '{}'): {}",
+            "the sample {what} in increment {} (stage '{}'): {}",
             self.increment, self.stage, self.cause
         )?;
         // A test under displacement control alone carries no applied stresses.
@@ -177,13 +186,20 @@ pub fn run_to_end(
                         (Some(last), Some(state)) => f.write_increment(state, &last, &sim.stats)?,
                         _ => f.write_summary(&sim.stats)?,
                     }
-                    // No equilibrium near: the mechanism, as the descent carried it.
-                    if let NumericError::NoEquilibrium { grains, .. } = &err {
+                    // No equilibrium near: the mechanism, as the descent carried it. At a
+                    // breakout that ends the test, the cluster is among the breakouts, and
+                    // nothing is carried on as a whole.
+                    let carried_on = match &err {
+                        NumericError::NoEquilibrium { grains, .. } => Some(grains.clone()),
+                        NumericError::BrokeOut { .. } => Some(Vec::new()),
+                        _ => None,
+                    };
+                    if let Some(grains) = carried_on {
                         let state = &sim.state;
                         f.write_mechanism(&Mechanism {
                             increment: state.increment + 1,
                             description: err.to_string(),
-                            grains: grains.clone(),
+                            grains,
                             position: state.grains.position.clone(),
                             displacement: sim.descent(),
                             membrane_pressure: state.membranes.iter().map(|m| m.pressure).collect(),
@@ -199,6 +215,11 @@ pub fn run_to_end(
                 let no_equilibrium = matches!(err, NumericError::NoEquilibrium { .. });
                 if stage.until_failure && no_equilibrium {
                     let cause = FailureCause::NoEquilibrium(err);
+                    let at = (sim.state.increment + 1, sim.state.stage);
+                    return Ok(RunEnd::Failed(failure(sim, cause, at)));
+                }
+                if let NumericError::BrokeOut { .. } = err {
+                    let cause = FailureCause::Breakout(err);
                     let at = (sim.state.increment + 1, sim.state.stage);
                     return Ok(RunEnd::Failed(failure(sim, cause, at)));
                 }

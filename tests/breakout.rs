@@ -199,6 +199,26 @@ fn a_run_resumed_after_a_breakout_repeats_the_uninterrupted_one_and_reports_it()
     assert!(text.contains(&line), "no {line:?} in:\n{text}");
 }
 
+/// `scene` run until it fails into `dir/annulus.h5`, every increment written: the failure,
+/// the file and the Newton iterations the run took.
+fn run_to_failure(
+    scene: &grainstat::scene::Scene,
+    dir: &Path,
+) -> (run::Failure, std::path::PathBuf, usize) {
+    let grains = build_grains(&scene.grains, Path::new("."), "annulus").unwrap();
+    let mut sim = Simulation::new(scene, grains, SolverConfig::default(), "annulus").unwrap();
+    let path = dir.join("annulus.h5");
+    let text = toml::to_string(scene).unwrap();
+    let mut file = ResultFile::create(&path, &run::header(&sim, &text, "")).unwrap();
+    file.write_increment(&sim.state, &run::initial_report(&sim), &sim.stats)
+        .unwrap();
+    let failure = match run::run_to_end(&mut sim, Some(&mut file), 1, |_, _| {}) {
+        Ok(run::RunEnd::Failed(failure)) => failure,
+        other => panic!("expected the annulus to fail, got {other:?}"),
+    };
+    (failure, path, sim.stats.counters.newton_iterations)
+}
+
 /// A cluster that breaks out in the increment that then fails as a whole is on file with
 /// the failure, though that increment is not: the small cemented annulus raised in 20-MPa
 /// steps breaks a cluster of 4 grains out of its borehole in increment 12, at the 236 MPa
@@ -207,17 +227,7 @@ fn a_run_resumed_after_a_breakout_repeats_the_uninterrupted_one_and_reports_it()
 #[test]
 fn a_breakout_in_the_increment_that_fails_is_on_file_and_reported() {
     let dir = tempfile::tempdir().unwrap();
-    let mut sim = common::annulus_to_failure(20);
-    let path = dir.path().join("annulus.h5");
-    let scene_text = toml::to_string(&common::annulus_to_failure_scene(20)).unwrap();
-    let mut file = ResultFile::create(&path, &run::header(&sim, &scene_text, "")).unwrap();
-    file.write_increment(&sim.state, &run::initial_report(&sim), &sim.stats)
-        .unwrap();
-    let failure = match run::run_to_end(&mut sim, Some(&mut file), 1, |_, _| {}) {
-        Ok(run::RunEnd::Failed(failure)) => failure,
-        other => panic!("expected the annulus to fail, got {other:?}"),
-    };
-    drop(file);
+    let (failure, path, _) = run_to_failure(&common::annulus_to_failure_scene(20), dir.path());
     let last = failure.last_increment;
     let (_, written) = read_state(&path, last).unwrap();
     assert!(written.breakouts.is_empty(), "{:?}", written.breakouts);
@@ -242,6 +252,48 @@ fn a_breakout_in_the_increment_that_fails_is_on_file_and_reported() {
     let written = plot(&path, Some(&plots), None).unwrap();
     let picture = plots.join(format!("breakout-1-{last:08}.png"));
     assert!(written.contains(&picture), "{picture:?} not written");
+}
+
+/// A test that ends at its first breakout (`until_breakout`, the thesis's functional
+/// failure) ends where the run that goes on finds it: the same annulus in 20-MPa steps, its
+/// cluster of 4 grains out in increment 12 at the same pressure, the same grains, and the
+/// collapse after it not followed (fewer iterations, nothing carried on as a whole). Without
+/// `breakouts` the key is bad input, named with its file and line.
+#[test]
+fn a_test_that_ends_at_its_first_breakout_finds_it_where_the_whole_run_does() {
+    let run_of = |until_breakout: bool| {
+        let dir = tempfile::tempdir().unwrap();
+        let mut scene = common::annulus_to_failure_scene(20);
+        scene.stages[0].until_breakout = until_breakout;
+        let (failure, path, iterations) = run_to_failure(&scene, dir.path());
+        let mechanism = read_mechanism(&path).unwrap().expect("the failure on file");
+        let report = cylinder_failure(&path).unwrap().expect("a cylinder test");
+        (failure, mechanism, report.first_breakout(), iterations)
+    };
+    let (whole, whole_mechanism, whole_breakout, whole_iterations) = run_of(false);
+    let (first, mechanism, breakout, iterations) = run_of(true);
+    assert!(
+        matches!(first.cause, run::FailureCause::Breakout(_)),
+        "{first}"
+    );
+    assert_eq!(first.increment, whole.increment);
+    assert_eq!(breakout, whole_breakout);
+    assert!(breakout.is_some());
+    assert_eq!(mechanism.breakouts, whole_mechanism.breakouts);
+    assert!(mechanism.grains.is_empty() && !whole_mechanism.grains.is_empty());
+    assert!(
+        iterations < whole_iterations,
+        "{iterations} against {whole_iterations}"
+    );
+
+    let mut scene = common::annulus_to_failure_scene(20);
+    scene.stages[0].breakouts = false;
+    scene.stages[0].until_breakout = true;
+    let text = toml::to_string(&scene).unwrap();
+    let err = grainstat::scene::parse_scene(&text, "annulus.toml").unwrap_err();
+    let message = err.to_string();
+    let at_line = message.starts_with("annulus.toml:") && message.contains("until_breakout");
+    assert!(at_line, "{message}");
 }
 
 /// The grain of the borehole's surface nearest its centre, whose bonds have all broken and that touches nothing is

@@ -31,6 +31,7 @@ fn stage(
         until_failure: false,
         failure_drop: None,
         breakouts: false,
+        until_breakout: false,
     }
 }
 

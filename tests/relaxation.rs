@@ -202,6 +202,7 @@ fn relaxation_and_the_minimisation_agree_on_an_annulus_under_a_membrane() {
         until_failure: false,
         failure_drop: None,
         breakouts: false,
+        until_breakout: false,
     };
     let run = |config: SolverConfig| {
         let mut sim = Simulation::from_state(

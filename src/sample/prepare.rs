@@ -234,6 +234,7 @@ pub fn prepare(
         until_failure: false,
         failure_drop: None,
         breakouts: false,
+        until_breakout: false,
     };
     let state = State::fresh(grains, walls, contacts, Vec::new());
     // The global solver, whatever strategy the settings name: 20 sweeps would leave it

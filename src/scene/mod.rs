@@ -361,6 +361,11 @@ pub struct Stage {
     /// equilibrium is more than a tenth of its grains.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub breakouts: bool,
+    /// With `breakouts`, the test ends at its first breakout: the cylinder test's
+    /// functional failure (thesis 4.4.2), the moment the borehole loses its function. The
+    /// cluster is recorded and taken out, and the sample's collapse after it is not followed.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub until_breakout: bool,
 }
 
 /// Where the state goes.

@@ -472,6 +472,12 @@ fn stages(scene: &Scene, walls: &BTreeMap<String, WallControl>, p: &mut Problems
                 );
             }
         }
+        if s.until_breakout && !s.breakouts {
+            p.push(
+                format!("{at}.until_breakout"),
+                "needs `breakouts = true`: the test ends at the first cluster taken out",
+            );
+        }
         if s.breakouts && !s.until_failure {
             p.push(
                 format!("{at}.breakouts"),

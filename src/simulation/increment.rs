@@ -123,6 +123,9 @@ impl Simulation {
                 NumericError::NotConverged { cuts, .. } => *cuts = part.depth,
                 NumericError::NoEquilibrium {
                     load_change: at, ..
+                }
+                | NumericError::BrokeOut {
+                    load_change: at, ..
                 } => *at = load_change,
                 _ => {}
             }
@@ -413,7 +416,8 @@ impl Simulation {
     /// out of the sample (thesis 4.4.2) in a step that is not `wide` (its load bracketed), the
     /// cluster is taken out where it broke out and the minimisation starts again from
     /// `restart`, the step's last equilibrium or its start, with the bonds broken so far left
-    /// broken: the breakout is one event of the step, and the step goes on past it. A
+    /// broken: the breakout is one event of the step, and the step goes on past it; in a
+    /// stage that ends at its first breakout, the step ends there instead. A
     /// cascade's equilibrium kept in `dropped` had the cluster in it, and goes.
     fn minimise_breaking_out(
         &mut self,
@@ -431,6 +435,13 @@ impl Simulation {
                 {
                     let breakout = self.remove_cluster(&grains);
                     report.bonds_broken += breakout.bonds_broken;
+                    if self.stages[self.state.stage].until_breakout {
+                        return Err(NumericError::BrokeOut {
+                            increment: self.state.increment + 1,
+                            grains: breakout.grains,
+                            load_change: 0.0,
+                        });
+                    }
                     *dropped = None;
                     let per = self.dofs.per_grain;
                     for &g in &breakout.grains {

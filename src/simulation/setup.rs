@@ -171,6 +171,8 @@ pub struct StageProgram {
     /// Whether clusters that break out are taken out and loading goes on (see
     /// [`crate::scene::Stage::breakouts`]).
     pub breakouts: bool,
+    /// Whether the stage ends at its first breakout ([`crate::scene::Stage::until_breakout`]).
+    pub until_breakout: bool,
 }
 
 /// The walls of a scene: the four of `box` (bottom, right, top, left) on the grains' bounding
@@ -379,6 +381,7 @@ pub fn build_stages(scene: &Scene, walls: &WallSet, membranes: &[Membrane]) -> V
                 until_failure: s.until_failure,
                 failure_drop: s.failure_drop,
                 breakouts: s.breakouts,
+                until_breakout: s.until_breakout,
             };
             for (name, v) in &s.stress {
                 if let Some(w) = index(name) {
