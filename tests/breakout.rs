@@ -268,10 +268,23 @@ fn a_test_that_ends_at_its_first_breakout_finds_it_where_the_whole_run_does() {
         let (failure, path, iterations) = run_to_failure(&scene, dir.path());
         let mechanism = read_mechanism(&path).unwrap().expect("the failure on file");
         let report = cylinder_failure(&path).unwrap().expect("a cylinder test");
-        (failure, mechanism, report.first_breakout(), iterations)
+        let pictures = plot(&path, Some(&dir.path().join("plots")), None).unwrap();
+        let named = |what: &str| {
+            (pictures.iter()).any(|p| p.to_string_lossy().contains(&format!("/{what}-")))
+        };
+        let drawn = (named("breakout"), named("mechanism"));
+        (
+            failure,
+            mechanism,
+            report.first_breakout(),
+            iterations,
+            drawn,
+        )
     };
-    let (whole, whole_mechanism, whole_breakout, whole_iterations) = run_of(false);
-    let (first, mechanism, breakout, iterations) = run_of(true);
+    let (whole, whole_mechanism, whole_breakout, whole_iterations, _) = run_of(false);
+    let (first, mechanism, breakout, iterations, drawn) = run_of(true);
+    // Its picture is the breakout's; no mechanism was carried on.
+    assert_eq!(drawn, (true, false));
     assert!(
         matches!(first.cause, run::FailureCause::Breakout(_)),
         "{first}"

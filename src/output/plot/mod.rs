@@ -185,7 +185,8 @@ pub fn plot(
 
     // The mechanism of the failure that ended the run, after the last increment in
     // equilibrium: the grains as the descent that found no equilibrium near carried them.
-    if let Some(mechanism) = failure {
+    // A run that ended at its first breakout carried none on: its picture is the breakout's.
+    if let Some(mechanism) = failure.filter(|m| !m.grains.is_empty()) {
         let mut carried = shown.into_owned();
         carried.grains.position = mechanism.position;
         carried.grains.displacement = mechanism.displacement;
