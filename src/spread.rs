@@ -154,7 +154,6 @@ pub fn run_spread(
 ) -> Result<Vec<SpreadRun>, Error> {
     let scene_file = scene_path.display().to_string();
     let text = std::fs::read_to_string(scene_path).map_err(|e| Error::io(&scene_file, e))?;
-    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir.display(), e))?;
     let sizes: &[bool] = if plan.halved {
         &[false, true]
     } else {
@@ -170,6 +169,19 @@ pub fn run_spread(
         let scene = parse_scene(&scene_text, &scene_file)?;
         scenes.push((scene_text, scene));
     }
+    if let (Some(Figure::Wall(name)), Some((_, scene))) = (&plan.figure, scenes.first()) {
+        let walls = scene.walls.iter().map(|w| &w.name);
+        if !walls
+            .chain(scene.circles.iter().map(|c| &c.name))
+            .any(|n| n == name)
+        {
+            let message = format!("the scene has no wall or circle `{name}`");
+            return Err(InputError::new(&scene_file, message)
+                .at_key("--figure")
+                .into());
+        }
+    }
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir.display(), e))?;
     let next = AtomicUsize::new(0);
     let done: Mutex<Vec<Option<Result<SpreadRun, Error>>>> =
         Mutex::new((0..jobs.len()).map(|_| None).collect());

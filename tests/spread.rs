@@ -85,7 +85,8 @@ fn a_spread_reads_each_run_as_the_plain_run_and_gives_the_change_on_halving() {
     assert_eq!(csv.lines().count(), 5, "{csv}");
 }
 
-/// A failure figure the run cannot give, or a scene without stages, is bad input.
+/// A failure figure the run cannot give, a wall the scene does not have, or a scene
+/// without stages, is bad input, found before any run.
 #[test]
 fn a_spread_of_what_cannot_be_read_is_exit_status_2() {
     let dir = tempfile::tempdir().unwrap();
@@ -95,4 +96,22 @@ fn a_spread_of_what_cannot_be_read_is_exit_status_2() {
     std::fs::write(&scene, "name = \"none\"\n").unwrap();
     let out = grainstat(&["spread", scene.to_str().unwrap(), "--quiet"]);
     assert_input_error(&out, &["none.toml", "stages"]);
+    // A wall the scene does not have, before any run.
+    let crystal = dir.path().join("crystal.toml");
+    std::fs::write(
+        &crystal,
+        toml::to_string(&crystal_to_failure(20, true)).unwrap(),
+    )
+    .unwrap();
+    let runs = dir.path().join("runs");
+    let out = grainstat(&[
+        "spread",
+        crystal.to_str().unwrap(),
+        "--figure",
+        "wall:plug",
+        "-o",
+        runs.to_str().unwrap(),
+    ]);
+    assert_input_error(&out, &["crystal.toml", "--figure", "plug"]);
+    assert!(!runs.exists());
 }
