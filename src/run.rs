@@ -213,17 +213,13 @@ pub fn run_to_end(
                 // The minimisation names the failure (grains carried on while the potential
                 // falls); where it only stops short of the tolerance, the solver gave up.
                 let no_equilibrium = matches!(err, NumericError::NoEquilibrium { .. });
-                if stage.until_failure && no_equilibrium {
-                    let cause = FailureCause::NoEquilibrium(err);
-                    let at = (sim.state.increment + 1, sim.state.stage);
-                    return Ok(RunEnd::Failed(failure(sim, cause, at)));
-                }
-                if let NumericError::BrokeOut { .. } = err {
-                    let cause = FailureCause::Breakout(err);
-                    let at = (sim.state.increment + 1, sim.state.stage);
-                    return Ok(RunEnd::Failed(failure(sim, cause, at)));
-                }
-                return Err(err.into());
+                let cause = match err {
+                    NumericError::BrokeOut { .. } => FailureCause::Breakout(err),
+                    _ if stage.until_failure && no_equilibrium => FailureCause::NoEquilibrium(err),
+                    _ => return Err(err.into()),
+                };
+                let at = (sim.state.increment + 1, sim.state.stage);
+                return Ok(RunEnd::Failed(failure(sim, cause, at)));
             }
         };
         if let Some(before) = pending.take() {
