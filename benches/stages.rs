@@ -1,5 +1,6 @@
 //! The stages of a load increment by sample size and number of threads: friends lists,
-//! pattern build, the return map, residual and tangent (the return map and the assembly),
+//! pattern build, a ring membrane's chain, the return map, residual and tangent (the return
+//! map and the assembly),
 //! numeric Cholesky factorisation, one solve with its factor, and one whole increment by the global solver; and one
 //! increment by the relaxation (20 sweeps, the thesis's n_i), which goes grain by grain on one
 //! thread.
@@ -19,7 +20,7 @@ use criterion::{criterion_group, criterion_main, BatchSize, BenchmarkId, Criteri
 use faer::sparse::SparseColMatRef;
 use grainstat::assembly::{DofMap, Pattern};
 use grainstat::contact::Configuration;
-use grainstat::geometry::FriendSet;
+use grainstat::geometry::{FriendSet, Membrane, MembraneShape};
 use grainstat::samples;
 use grainstat::scene::{build_grains, Scene};
 use grainstat::simulation::{anchors, IncrementEquations, LoadStep, Simulation};
@@ -52,6 +53,15 @@ fn pattern_of(sim: &Simulation, skin: f64) -> (FriendSet, DofMap, Pattern) {
     (friends, dofs, pattern)
 }
 
+/// The centre of the grains.
+fn mean_position(position: &[[f64; 2]]) -> [f64; 2] {
+    let n = position.len() as f64;
+    let sum = position
+        .iter()
+        .fold([0.0; 2], |s, p| [s[0] + p[0], s[1] + p[1]]);
+    [sum[0] / n, sum[1] / n]
+}
+
 fn stages(c: &mut Criterion) {
     let mut group = c.benchmark_group("stages");
     group.sample_size(10);
@@ -78,6 +88,19 @@ fn stages(c: &mut Criterion) {
                 b.iter(|| pool.install(|| FriendSet::build(grain_set, wall_set, skin)))
             });
         }
+        // A membrane all around the crystal, as the cylinder test's: its chain is found anew
+        // at every refreeze of the lag (one thread: the probe rolls grain after grain).
+        let ring = Membrane {
+            name: "ring".into(),
+            shape: MembraneShape::Ring {
+                center: mean_position(&grain_set.position),
+            },
+            pressure: 1e6,
+        };
+        let (carrying, kept) = (vec![true; grain_set.len()], vec![false; grain_set.len()]);
+        group.bench_function(id("membrane chain", 1), |b| {
+            b.iter(|| ring.chain(&grain_set.position, &grain_set.radius, &carrying, &kept))
+        });
         let (friends, dofs, pattern) = pattern_of(&sim, config.skin);
         for (threads, pool) in &pools {
             group.bench_function(id("pattern build", *threads), |b| {

@@ -5,7 +5,8 @@
 //! centres, each segment `e` carrying `p D |e|` along its inward normal, half to each end.
 //! The load enters the global equations directly (no servo), with its tangent.
 
-use super::{surely_longer, CellGrid};
+use super::{surely_longer, surely_shorter, CellGrid, SQUARED_DOUBT};
+use std::cell::RefCell;
 use std::f64::consts::TAU;
 
 /// Which boundary a membrane covers.
@@ -116,6 +117,7 @@ impl Membrane {
             carrying,
             probe,
             grid: CellGrid::new(position, 2.0 * (r_max + probe)),
+            reached: RefCell::default(),
         };
         let dot = |u: [f64; 2], v: [f64; 2]| u[0] * v[0] + u[1] * v[1];
         // The last of the grains that reach furthest.
@@ -216,6 +218,8 @@ struct Roll<'a> {
     carrying: &'a [bool],
     probe: f64,
     grid: CellGrid,
+    /// The grains within the probe's reach of the pivot, with their estimated turns.
+    reached: RefCell<Vec<(f64, usize)>>,
 }
 
 impl Roll<'_> {
@@ -259,29 +263,59 @@ impl Roll<'_> {
     /// Roll the probe, resting on grain `i` in the direction `angle`, about `i` in the given
     /// sense until it touches another grain: that grain, the turn (rad) and the probe's
     /// direction seen from the new grain. `None` when nothing is within reach.
+    ///
+    /// The turn to each grain within reach is first estimated without trigonometry (the
+    /// pseudo-angle of the probe's centre where it touches that grain); the exact turn,
+    /// [`exact_turn`], is taken only for the grains whose estimate is within [`SCREEN`] of the
+    /// least, or of a whole turn, so the grain found is the one the exact turns alone pick.
     fn pivot(&self, i: usize, angle: f64, sense: f64) -> Option<(usize, f64, f64)> {
         let (p, a) = (self.position[i], self.radius[i] + self.probe);
-        let mut best: Option<(f64, usize)> = None;
+        let facing = [angle.cos(), angle.sin()];
+        let mut reached = self.reached.borrow_mut();
+        reached.clear();
         for j in self.grid.near(p) {
             let q = self.position[j];
             let b = self.radius[j] + self.probe;
             let branch = [q[0] - p[0], q[1] - p[1]];
             // Most grains near are out of the probe's reach, which needs no square root.
-            let reach = a + b;
+            let (reach, inner) = (a + b, (a - b).abs());
             if j == i || !self.carrying[j] || surely_longer(branch, reach) {
                 continue;
             }
-            let d = branch[0].hypot(branch[1]);
-            if d >= reach || d <= (a - b).abs() {
+            let d2 = branch[0] * branch[0] + branch[1] * branch[1];
+            let clearly_within =
+                surely_shorter(branch, reach) && d2 > (1.0 + SQUARED_DOUBT) * inner * inner;
+            if !clearly_within {
+                let d = branch[0].hypot(branch[1]);
+                if d >= reach || d <= inner {
+                    continue;
+                }
+            }
+            // The probe's centre where it touches `j`, from `p`: `a` along the direction
+            // `alpha - sense beta` of `exact_turn`.
+            let along = (a * a + d2 - b * b) / (2.0 * d2);
+            let across = sense * (a * a / d2 - along * along).max(0.0).sqrt();
+            let centre = [
+                along * branch[0] + across * branch[1],
+                along * branch[1] - across * branch[0],
+            ];
+            let cos = facing[0] * centre[0] + facing[1] * centre[1];
+            let sin = sense * (facing[0] * centre[1] - facing[1] * centre[0]);
+            reached.push((pseudo_angle(sin, cos), j));
+        }
+        let away_from_whole = |t: f64| (SCREEN..=4.0 - SCREEN).contains(&t);
+        let least = reached
+            .iter()
+            .map(|&(t, _)| t)
+            .filter(|&t| away_from_whole(t))
+            .fold(f64::INFINITY, f64::min);
+        let mut best: Option<(f64, usize)> = None;
+        for &(t, j) in reached.iter() {
+            if t > least + SCREEN && away_from_whole(t) {
                 continue;
             }
-            // The probe touches `j` at angles alpha -+ beta about `i`; rolling in `sense` it
-            // meets the first of these.
-            let alpha = (q[1] - p[1]).atan2(q[0] - p[0]);
-            let beta = ((a * a + d * d - b * b) / (2.0 * a * d))
-                .clamp(-1.0, 1.0)
-                .acos();
-            let turn = (sense * (alpha - sense * beta - angle)).rem_euclid(TAU);
+            let (q, b) = (self.position[j], self.radius[j] + self.probe);
+            let turn = exact_turn(p, a, q, b, angle, sense);
             if best.is_none_or(|(t, k)| turn < t || (turn == t && j < k)) {
                 best = Some((turn, j));
             }
@@ -291,6 +325,36 @@ impl Roll<'_> {
         let centre = [p[0] + a * at.cos(), p[1] + a * at.sin()];
         let q = self.position[j];
         Some((j, turn, (centre[1] - q[1]).atan2(centre[0] - q[0])))
+    }
+}
+
+/// How close, in pseudo-angle ([`pseudo_angle`]; at least as much in radians), an estimated
+/// turn must come to the least, or to a whole turn, for its exact turn to be taken: far above
+/// the rounding of either (about 1e-8 rad where the probe only grazes a grain).
+const SCREEN: f64 = 1e-6;
+
+/// The turn (rad, in `[0, 2 pi)`) the probe's centre, `a` from the pivot's centre `p`, rolls
+/// about `p` from the direction `angle`, in `sense`, before it comes `b` from the centre `q`
+/// of another grain (the probe's radius plus that grain's), which is within its reach.
+fn exact_turn(p: [f64; 2], a: f64, q: [f64; 2], b: f64, angle: f64, sense: f64) -> f64 {
+    let d = (q[0] - p[0]).hypot(q[1] - p[1]);
+    // The probe touches `q` at angles alpha -+ beta about `p`; rolling in `sense` it meets
+    // the first of these.
+    let alpha = (q[1] - p[1]).atan2(q[0] - p[0]);
+    let beta = ((a * a + d * d - b * b) / (2.0 * a * d))
+        .clamp(-1.0, 1.0)
+        .acos();
+    (sense * (alpha - sense * beta - angle)).rem_euclid(TAU)
+}
+
+/// A measure of the angle of `(cos, sin)` from 0 to 4 that grows with it (a quarter turn
+/// for each unit, at a rate between 1/2 and 1 per radian): the "diamond angle".
+fn pseudo_angle(sin: f64, cos: f64) -> f64 {
+    match (sin >= 0.0, cos >= 0.0) {
+        (true, true) => sin / (cos + sin),
+        (true, false) => 1.0 - cos / (sin - cos),
+        (false, false) => 2.0 - sin / (-cos - sin),
+        (false, true) => 3.0 + cos / (cos - sin),
     }
 }
 
@@ -388,6 +452,54 @@ mod tests {
         assert!(!chain.grains.contains(&2), "{:?}", chain.grains);
         let at = chain.grains.iter().position(|&g| g == 1).expect("grain 1");
         assert_eq!(chain.grains[(at + 1) % chain.grains.len()], 3);
+    }
+
+    /// The screened pivot finds what the exact turns of every grain within reach pick, on
+    /// random packings of mixed sizes, from random directions, both ways round.
+    #[test]
+    fn the_screened_pivot_is_the_exact_one() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand::rngs::StdRng::seed_from_u64(7);
+        for _ in 0..200 {
+            let n = rng.random_range(2..60);
+            let position: Vec<[f64; 2]> = (0..n)
+                .map(|_| [rng.random_range(0.0..12.0), rng.random_range(0.0..12.0)])
+                .collect();
+            let radius: Vec<f64> = (0..n).map(|_| rng.random_range(0.3..1.5)).collect();
+            let carrying: Vec<bool> = (0..n).map(|_| rng.random_bool(0.9)).collect();
+            let r_mean = radius.iter().sum::<f64>() / n as f64;
+            let r_max = radius.iter().cloned().fold(0.0, f64::max);
+            let probe = PROBE_RADII * r_mean;
+            let roll = Roll {
+                position: &position,
+                radius: &radius,
+                carrying: &carrying,
+                probe,
+                grid: CellGrid::new(&position, 2.0 * (r_max + probe)),
+                reached: RefCell::default(),
+            };
+            for _ in 0..20 {
+                let i = rng.random_range(0..n);
+                let angle = rng.random_range(-4.0..4.0);
+                let sense = if rng.random_bool(0.5) { 1.0 } else { -1.0 };
+                let a = radius[i] + probe;
+                let mut best: Option<(f64, usize)> = None;
+                for j in (0..n).filter(|&j| j != i && carrying[j]) {
+                    let b = radius[j] + probe;
+                    let d =
+                        (position[j][0] - position[i][0]).hypot(position[j][1] - position[i][1]);
+                    if d >= a + b || d <= (a - b).abs() {
+                        continue;
+                    }
+                    let turn = exact_turn(position[i], a, position[j], b, angle, sense);
+                    if best.is_none_or(|(t, k)| turn < t || (turn == t && j < k)) {
+                        best = Some((turn, j));
+                    }
+                }
+                let found = roll.pivot(i, angle, sense);
+                assert_eq!(found.map(|f| (f.1, f.0)), best, "grain {i} of {n}");
+            }
+        }
     }
 
     #[test]
