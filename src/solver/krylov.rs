@@ -4,15 +4,57 @@
 
 use faer::sparse::SymbolicSparseColMat;
 
-/// `y = A x` for `A` in compressed columns (full storage).
-pub fn multiply(pattern: &SymbolicSparseColMat<usize>, values: &[f64], x: &[f64], y: &mut [f64]) {
-    y.fill(0.0);
-    let (col_ptr, row_idx) = (pattern.col_ptr(), pattern.row_idx());
-    for (j, &xj) in x.iter().enumerate() {
-        if xj != 0.0 {
+/// A matrix of a symmetric pattern (both triangles stored, each column's rows sorted) with
+/// its values laid out by rows, for products: each entry of `A x` is then one running sum
+/// over its row, taken in the order of the columns as a product by columns adds them into
+/// it (the same values to the last bit), instead of every column scattered into the product.
+#[derive(Debug, Default)]
+pub struct ByRows {
+    /// For each entry in the order by rows, its place among the values by columns.
+    source: Vec<usize>,
+    /// The values in the order by rows.
+    values: Vec<f64>,
+}
+
+impl ByRows {
+    /// The layout by rows of `pattern`, its values still to be given ([`ByRows::gather`]).
+    pub fn new(pattern: &SymbolicSparseColMat<usize>) -> Self {
+        let (col_ptr, row_idx) = (pattern.col_ptr(), pattern.row_idx());
+        let mut next = col_ptr[..pattern.ncols()].to_vec();
+        let mut source = vec![0; row_idx.len()];
+        for j in 0..pattern.ncols() {
             for p in col_ptr[j]..col_ptr[j + 1] {
-                y[row_idx[p]] += values[p] * xj;
+                let i = row_idx[p];
+                debug_assert_eq!(row_idx[next[i]], j, "a symmetric pattern");
+                source[next[i]] = p;
+                next[i] += 1;
             }
+        }
+        ByRows {
+            values: vec![0.0; source.len()],
+            source,
+        }
+    }
+
+    /// Take the values of the matrix, given by columns.
+    pub fn gather(&mut self, by_columns: &[f64]) {
+        for (value, &p) in self.values.iter_mut().zip(&self.source) {
+            *value = by_columns[p];
+        }
+    }
+
+    /// `y = A x`, `pattern` the one this layout was made of.
+    pub fn multiply(&self, pattern: &SymbolicSparseColMat<usize>, x: &[f64], y: &mut [f64]) {
+        let (row_ptr, columns) = (pattern.col_ptr(), pattern.row_idx());
+        for (i, yi) in y.iter_mut().enumerate() {
+            let range = row_ptr[i]..row_ptr[i + 1];
+            // From +0.0, as the product by columns starts: a zero product added to a sum
+            // never changes it then, so the columns it skips where `x` is zero do not count.
+            let mut sum = 0.0;
+            for (a, &j) in self.values[range.clone()].iter().zip(&columns[range]) {
+                sum += a * x[j];
+            }
+            *yi = sum;
         }
     }
 }
@@ -151,18 +193,62 @@ mod tests {
     }
 
     #[test]
+    fn the_product_by_rows_is_the_product_by_columns_to_the_last_bit() {
+        // A symmetric pattern of couplings between unknowns near each other, unsymmetric
+        // values of mixed signs and magnitudes, and a vector with zeros and negative zeros.
+        let n = 300;
+        let mut entries = Vec::new();
+        let value = |k: usize| ((k as f64) * 0.731).sin() * 10f64.powi((k % 7) as i32 - 3);
+        for i in 0..n {
+            for d in [0, 1, 3, 17] {
+                if i + d < n && (d == 0 || (i * 7 + d) % 3 != 0) {
+                    entries.push(Triplet::new(i, i + d, value(entries.len())));
+                    if d > 0 {
+                        entries.push(Triplet::new(i + d, i, value(entries.len())));
+                    }
+                }
+            }
+        }
+        let a = SparseColMat::<usize, f64>::try_new_from_triplets(n, n, &entries).unwrap();
+        let pattern = a.symbolic().to_owned().unwrap();
+        let x: Vec<f64> = (0..n)
+            .map(|j| match j % 5 {
+                0 => 0.0,
+                1 => -0.0,
+                _ => ((j as f64) * 1.37).cos(),
+            })
+            .collect();
+        let mut by_columns = vec![0.0; n];
+        for (j, &xj) in x.iter().enumerate() {
+            if xj != 0.0 {
+                for p in pattern.col_ptr()[j]..pattern.col_ptr()[j + 1] {
+                    by_columns[pattern.row_idx()[p]] += a.val()[p] * xj;
+                }
+            }
+        }
+        let mut by_rows = ByRows::new(&pattern);
+        by_rows.gather(a.val());
+        let mut y = vec![f64::NAN; n];
+        by_rows.multiply(&pattern, &x, &mut y);
+        for (p, q) in y.iter().zip(&by_columns) {
+            assert_eq!(p.to_bits(), q.to_bits(), "{p} against {q}");
+        }
+    }
+
+    #[test]
     fn gmres_solves_an_unsymmetric_system_preconditioned_by_its_diagonal() {
         let n = 200;
         let a = matrix(n);
         let pattern = a.symbolic().to_owned().unwrap();
-        let values = a.val().to_vec();
+        let mut by_rows = ByRows::new(&pattern);
+        by_rows.gather(a.val());
         let b: Vec<f64> = (0..n).map(|i| (i as f64).sin()).collect();
         let diagonal: Vec<f64> = (0..n).map(|i| 4.0 + (i % 3) as f64).collect();
         let mut x = vec![0.0; n];
         let mut gmres = Gmres::default();
         let iterations = gmres
             .solve(
-                &mut |v, out| multiply(&pattern, &values, v, out),
+                &mut |v, out| by_rows.multiply(&pattern, v, out),
                 &mut |v| v.iter_mut().zip(&diagonal).for_each(|(a, d)| *a /= d),
                 &b,
                 &mut x,
@@ -172,7 +258,7 @@ mod tests {
             .expect("converges");
         assert!(iterations > 1 && iterations < 60, "{iterations} iterations");
         let mut ax = vec![0.0; n];
-        multiply(&pattern, &values, &x, &mut ax);
+        by_rows.multiply(&pattern, &x, &mut ax);
         let error = ax
             .iter()
             .zip(&b)
@@ -182,7 +268,7 @@ mod tests {
         // An exact preconditioner needs one iteration; too few iterations give None.
         let mut few = vec![0.0; n];
         let none = gmres.solve(
-            &mut |v, out| multiply(&pattern, &values, v, out),
+            &mut |v, out| by_rows.multiply(&pattern, v, out),
             &mut |_| {},
             &b,
             &mut few,

@@ -333,6 +333,8 @@ pub fn minimise(
     let mut lowest = (rel, 0usize);
     let mut cycled = false;
     let (mut consistent, mut gmres) = (Vec::new(), krylov::Gmres::default());
+    // The consistent tangent by rows for GMRES's products, its layout made when first needed.
+    let mut by_rows: Option<krylov::ByRows> = None;
     // The grain last moved to its own equilibrium, with the states of its contacts there.
     let mut balanced: (usize, Vec<u8>) = (usize::MAX, Vec::new());
     // The grain the lagged descent last balanced, and the residual's 2-norm it left.
@@ -404,10 +406,12 @@ pub fn minimise(
             if rel <= settings.tolerance {
                 continue;
             }
+            let tangent = by_rows.get_or_insert_with(|| krylov::ByRows::new(symbolic));
+            tangent.gather(&consistent);
             let mut solve = |linear: &mut LinearSolver, du: &mut [f64], stats: &mut SolverStats| {
                 du.fill(0.0);
                 gmres.solve(
-                    &mut |v, out| krylov::multiply(symbolic, &consistent, v, out),
+                    &mut |v, out| tangent.multiply(symbolic, v, out),
                     &mut |v| linear.solve_in_place(v, stats),
                     &residual,
                     du,
