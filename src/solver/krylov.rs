@@ -8,7 +8,7 @@ use faer::sparse::SymbolicSparseColMat;
 /// its values laid out by rows, for products: each entry of `A x` is then one running sum
 /// over its row, taken in the order of the columns as a product by columns adds them into
 /// it (the same values to the last bit), instead of every column scattered into the product.
-#[derive(Debug, Default)]
+#[derive(Debug)]
 pub struct ByRows {
     /// For each entry in the order by rows, its place among the values by columns.
     source: Vec<usize>,
