@@ -12,6 +12,7 @@ pub use local::{contact_block, frame_turn_force, BlockTangent, LocalBlock};
 
 use crate::geometry::{Chain, FriendSet, Pair, Side, WallSet};
 use crate::parallel;
+use crate::solver::krylov;
 use faer::sparse::SymbolicSparseColMat;
 use rayon::prelude::*;
 use std::ops::Range;
@@ -305,6 +306,8 @@ pub struct Pattern {
     start: Vec<usize>,
     /// Value index of each diagonal entry.
     pub diagonal: Vec<usize>,
+    /// Value index of each entry in the order by rows (`krylov::row_order`).
+    pub row_order: Vec<usize>,
     /// Value index of the (wall, span wall) entries of follower loads: `(row, col, slot)`.
     pub couplings: Vec<(usize, usize, usize)>,
     /// The grain links outside the friends lists it was built with (membrane chains).
@@ -390,6 +393,7 @@ impl Pattern {
             .collect();
         let symbolic = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
         Pattern {
+            row_order: krylov::row_order(&symbolic),
             symbolic,
             slots,
             start,

@@ -565,6 +565,7 @@ impl Simulation {
                     symbolic: &pattern.symbolic,
                     values: &mut values,
                     diagonal: &pattern.diagonal,
+                    row_order: &pattern.row_order,
                 },
                 &mut linear,
                 u,

@@ -48,9 +48,8 @@ fn relative_error(
     h: f64,
 ) -> f64 {
     let mut kv = vec![0.0; v.len()];
-    let mut by_rows = krylov::ByRows::new(&pattern.symbolic);
-    by_rows.gather(values);
-    by_rows.multiply(&pattern.symbolic, v, &mut kv);
+    let by_rows: Vec<f64> = pattern.row_order.iter().map(|&p| values[p]).collect();
+    krylov::multiply_by_rows(&pattern.symbolic, &by_rows, v, &mut kv);
     let (mut err, mut norm) = (0.0f64, 0.0f64);
     for k in 0..v.len() {
         let fd = -(plus[k] - minus[k]) / (2.0 * h);

@@ -4,58 +4,44 @@
 
 use faer::sparse::SymbolicSparseColMat;
 
-/// A matrix of a symmetric pattern (both triangles stored, each column's rows sorted) with
-/// its values laid out by rows, for products: each entry of `A x` is then one running sum
-/// over its row, taken in the order of the columns as a product by columns adds them into
-/// it (the same values to the last bit), instead of every column scattered into the product.
-#[derive(Debug)]
-pub struct ByRows {
-    /// For each entry in the order by rows, its place among the values by columns.
-    source: Vec<usize>,
-    /// The values in the order by rows.
-    values: Vec<f64>,
+/// For each entry of a symmetric pattern (both triangles stored, each column's rows sorted)
+/// in the order by rows, its index among the values by columns: the layout
+/// [`multiply_by_rows`] reads a matrix of that pattern in, made once per pattern.
+pub fn row_order(pattern: &SymbolicSparseColMat<usize>) -> Vec<usize> {
+    let (col_ptr, row_idx) = (pattern.col_ptr(), pattern.row_idx());
+    let mut next = col_ptr[..pattern.ncols()].to_vec();
+    let mut order = vec![0; row_idx.len()];
+    for j in 0..pattern.ncols() {
+        for p in col_ptr[j]..col_ptr[j + 1] {
+            let i = row_idx[p];
+            debug_assert_eq!(row_idx[next[i]], j, "a symmetric pattern");
+            order[next[i]] = p;
+            next[i] += 1;
+        }
+    }
+    order
 }
 
-impl ByRows {
-    /// The layout by rows of `pattern`, its values still to be given ([`ByRows::gather`]).
-    pub fn new(pattern: &SymbolicSparseColMat<usize>) -> Self {
-        let (col_ptr, row_idx) = (pattern.col_ptr(), pattern.row_idx());
-        let mut next = col_ptr[..pattern.ncols()].to_vec();
-        let mut source = vec![0; row_idx.len()];
-        for j in 0..pattern.ncols() {
-            for p in col_ptr[j]..col_ptr[j + 1] {
-                let i = row_idx[p];
-                debug_assert_eq!(row_idx[next[i]], j, "a symmetric pattern");
-                source[next[i]] = p;
-                next[i] += 1;
-            }
+/// `y = A x` for `A` of a symmetric pattern with its values `by_rows` in the order
+/// [`row_order`] gives. Each entry of the product is one running sum over its row, taken in
+/// the order of the columns as a product by columns adds them into it (the same values to the
+/// last bit), instead of every column scattered into the product.
+pub fn multiply_by_rows(
+    pattern: &SymbolicSparseColMat<usize>,
+    by_rows: &[f64],
+    x: &[f64],
+    y: &mut [f64],
+) {
+    let (row_ptr, columns) = (pattern.col_ptr(), pattern.row_idx());
+    for (i, yi) in y.iter_mut().enumerate() {
+        let range = row_ptr[i]..row_ptr[i + 1];
+        // From +0.0, as the product by columns starts: a zero product added to a sum never
+        // changes it then, so the columns it skips where `x` is zero do not count.
+        let mut sum = 0.0;
+        for (a, &j) in by_rows[range.clone()].iter().zip(&columns[range]) {
+            sum += a * x[j];
         }
-        ByRows {
-            values: vec![0.0; source.len()],
-            source,
-        }
-    }
-
-    /// Take the values of the matrix, given by columns.
-    pub fn gather(&mut self, by_columns: &[f64]) {
-        for (value, &p) in self.values.iter_mut().zip(&self.source) {
-            *value = by_columns[p];
-        }
-    }
-
-    /// `y = A x`, `pattern` the one this layout was made of.
-    pub fn multiply(&self, pattern: &SymbolicSparseColMat<usize>, x: &[f64], y: &mut [f64]) {
-        let (row_ptr, columns) = (pattern.col_ptr(), pattern.row_idx());
-        for (i, yi) in y.iter_mut().enumerate() {
-            let range = row_ptr[i]..row_ptr[i + 1];
-            // From +0.0, as the product by columns starts: a zero product added to a sum
-            // never changes it then, so the columns it skips where `x` is zero do not count.
-            let mut sum = 0.0;
-            for (a, &j) in self.values[range.clone()].iter().zip(&columns[range]) {
-                sum += a * x[j];
-            }
-            *yi = sum;
-        }
+        *yi = sum;
     }
 }
 
@@ -226,10 +212,9 @@ mod tests {
                 }
             }
         }
-        let mut by_rows = ByRows::new(&pattern);
-        by_rows.gather(a.val());
+        let by_rows: Vec<f64> = row_order(&pattern).iter().map(|&p| a.val()[p]).collect();
         let mut y = vec![f64::NAN; n];
-        by_rows.multiply(&pattern, &x, &mut y);
+        multiply_by_rows(&pattern, &by_rows, &x, &mut y);
         for (p, q) in y.iter().zip(&by_columns) {
             assert_eq!(p.to_bits(), q.to_bits(), "{p} against {q}");
         }
@@ -240,15 +225,14 @@ mod tests {
         let n = 200;
         let a = matrix(n);
         let pattern = a.symbolic().to_owned().unwrap();
-        let mut by_rows = ByRows::new(&pattern);
-        by_rows.gather(a.val());
+        let by_rows: Vec<f64> = row_order(&pattern).iter().map(|&p| a.val()[p]).collect();
         let b: Vec<f64> = (0..n).map(|i| (i as f64).sin()).collect();
         let diagonal: Vec<f64> = (0..n).map(|i| 4.0 + (i % 3) as f64).collect();
         let mut x = vec![0.0; n];
         let mut gmres = Gmres::default();
         let iterations = gmres
             .solve(
-                &mut |v, out| by_rows.multiply(&pattern, v, out),
+                &mut |v, out| multiply_by_rows(&pattern, &by_rows, v, out),
                 &mut |v| v.iter_mut().zip(&diagonal).for_each(|(a, d)| *a /= d),
                 &b,
                 &mut x,
@@ -258,7 +242,7 @@ mod tests {
             .expect("converges");
         assert!(iterations > 1 && iterations < 60, "{iterations} iterations");
         let mut ax = vec![0.0; n];
-        by_rows.multiply(&pattern, &x, &mut ax);
+        multiply_by_rows(&pattern, &by_rows, &x, &mut ax);
         let error = ax
             .iter()
             .zip(&b)
@@ -268,7 +252,7 @@ mod tests {
         // An exact preconditioner needs one iteration; too few iterations give None.
         let mut few = vec![0.0; n];
         let none = gmres.solve(
-            &mut |v, out| by_rows.multiply(&pattern, v, out),
+            &mut |v, out| multiply_by_rows(&pattern, &by_rows, v, out),
             &mut |_| {},
             &b,
             &mut few,

@@ -31,6 +31,9 @@ pub struct SystemMatrix<'a> {
     pub values: &'a mut Vec<f64>,
     /// Value index of each diagonal entry.
     pub diagonal: &'a [usize],
+    /// The value index of each entry in the order by rows ([`krylov::row_order`]), in which
+    /// GMRES multiplies by the consistent tangent.
+    pub row_order: &'a [usize],
 }
 
 /// An incremental potential `Pi(u)` with its gradient and projected Hessian in a fixed
@@ -296,6 +299,7 @@ pub fn minimise(
         symbolic,
         values,
         diagonal,
+        row_order,
     } = matrix;
     let mut residual = vec![0.0; n];
     let mut trial_residual = vec![0.0; n];
@@ -333,8 +337,8 @@ pub fn minimise(
     let mut lowest = (rel, 0usize);
     let mut cycled = false;
     let (mut consistent, mut gmres) = (Vec::new(), krylov::Gmres::default());
-    // The consistent tangent by rows for GMRES's products, its layout made when first needed.
-    let mut by_rows: Option<krylov::ByRows> = None;
+    // The consistent tangent's values in the order by rows, for GMRES's products.
+    let mut by_rows = Vec::new();
     // The grain last moved to its own equilibrium, with the states of its contacts there.
     let mut balanced: (usize, Vec<u8>) = (usize::MAX, Vec::new());
     // The grain the lagged descent last balanced, and the residual's 2-norm it left.
@@ -406,12 +410,12 @@ pub fn minimise(
             if rel <= settings.tolerance {
                 continue;
             }
-            let tangent = by_rows.get_or_insert_with(|| krylov::ByRows::new(symbolic));
-            tangent.gather(&consistent);
+            by_rows.clear();
+            by_rows.extend(row_order.iter().map(|&p| consistent[p]));
             let mut solve = |linear: &mut LinearSolver, du: &mut [f64], stats: &mut SolverStats| {
                 du.fill(0.0);
                 gmres.solve(
-                    &mut |v, out| tangent.multiply(symbolic, v, out),
+                    &mut |v, out| krylov::multiply_by_rows(symbolic, &by_rows, v, out),
                     &mut |v| linear.solve_in_place(v, stats),
                     &residual,
                     du,
