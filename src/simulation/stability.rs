@@ -92,6 +92,9 @@ impl Simulation {
                 None => step.normal_move[w],
             };
         }
+        // The freed system's L D L^T goes into the storage of the minimisation's L L^T, which
+        // the next minimisation factorises anew: one factor held, not two.
+        freed.linear.give_factor(self.linear.take_factor());
         let count = self.count_negative_pivots(
             step,
             &u_freed,
@@ -99,6 +102,7 @@ impl Simulation {
             &freed.pattern,
             &mut freed.linear,
         );
+        self.linear.give_factor(freed.linear.take_factor());
         self.freed = Some(freed);
         count
     }
@@ -125,8 +129,8 @@ impl Simulation {
         let timers = eq.timers;
         self.add_timers(timers);
         evaluated.ok()?;
-        let scaled = scaled_tangent(pattern, &values, &unit);
-        let matrix = SparseColMatRef::new(pattern.symbolic.as_ref(), &scaled);
+        scale_tangent(pattern, &mut values, &unit);
+        let matrix = SparseColMatRef::new(pattern.symbolic.as_ref(), &values);
         linear
             .negative_pivots(matrix, PIVOT_THRESHOLD, &mut self.stats)
             .ok()
@@ -137,9 +141,9 @@ impl Simulation {
 /// stability indicator.
 const PIVOT_THRESHOLD: f64 = 1e-8;
 
-/// The tangent `values` scaled as `S K S`, `S_ii = 1 / sqrt(k unit_i)`, `k` the mean of
-/// `K_ii / unit_i` over the rows that have stiffness: every diagonal then of order one.
-fn scaled_tangent(pattern: &Pattern, values: &[f64], unit: &[f64]) -> Vec<f64> {
+/// Scale the tangent `values` in place to `S K S`, `S_ii = 1 / sqrt(k unit_i)`, `k` the mean
+/// of `K_ii / unit_i` over the rows that have stiffness: every diagonal then of order one.
+fn scale_tangent(pattern: &Pattern, values: &mut [f64], unit: &[f64]) {
     let (mut sum, mut count) = (0.0, 0usize);
     for (dof, &slot) in pattern.diagonal.iter().enumerate() {
         if values[slot] > 0.0 {
@@ -150,15 +154,13 @@ fn scaled_tangent(pattern: &Pattern, values: &[f64], unit: &[f64]) -> Vec<f64> {
     let k = if count > 0 { sum / count as f64 } else { 1.0 };
     let scale: Vec<f64> = unit.iter().map(|u| 1.0 / (k * u).sqrt()).collect();
     let symbolic = pattern.symbolic.as_ref();
-    let mut scaled = values.to_vec();
     for (col, &s_col) in scale.iter().enumerate() {
         let range = symbolic.col_ptr()[col]..symbolic.col_ptr()[col + 1];
-        for (v, &row) in scaled[range]
+        for (v, &row) in values[range]
             .iter_mut()
             .zip(symbolic.row_idx_of_col_raw(col))
         {
             *v *= scale[row] * s_col;
         }
     }
-    scaled
 }

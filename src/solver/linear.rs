@@ -9,8 +9,13 @@
 //! uses the last successful factorisation.
 //!
 //! [`LinearSolver::negative_pivots`] counts the negative pivots of an `L D L^T` of a symmetric
-//! matrix in the Cholesky pattern, into storage of its own, so the `L L^T` it solves with
-//! stays valid: by Sylvester's law of inertia, the number of negative eigenvalues.
+//! matrix in the Cholesky pattern: by Sylvester's law of inertia, the number of negative
+//! eigenvalues. It is made in the storage of the `L L^T`, which is then gone: the stability
+//! indicator is taken once a minimisation has converged, and the next one factorises anew,
+//! so the two factors are never needed at once and only one is ever held. A second system
+//! (the stability indicator's, with its walls freed) can borrow that storage
+//! ([`LinearSolver::take_factor`], [`LinearSolver::give_factor`]), so that a run holds one
+//! factor's values in all.
 
 use super::stats::{secs, SolverStats};
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
@@ -67,10 +72,6 @@ struct Cholesky {
     /// columns' products with them (`solve_llt`).
     below: Vec<f64>,
     column_dots: Vec<f64>,
-    /// The values of `L L^T`, and those of the `L D L^T` of the stability indicator
-    /// (allocated when first needed).
-    llt: Vec<f64>,
-    ldlt: Vec<f64>,
 }
 
 impl Cholesky {
@@ -97,8 +98,6 @@ impl Cholesky {
             })
             .collect();
         Ok(Cholesky {
-            llt: vec![0.0; symbolic.len_val()],
-            ldlt: Vec::new(),
             values: vec![0.0; source.len()],
             ordered,
             source,
@@ -287,6 +286,9 @@ pub struct LinearSolver {
     cholesky: Option<Box<Cholesky>>,
     scratch: MemBuffer,
     factorized: bool,
+    /// The factor's values: the `L L^T` solved with, or the stability indicator's `L D L^T`.
+    /// Sized when first factorised into.
+    factor: Vec<f64>,
 }
 
 impl Default for LinearSolver {
@@ -303,6 +305,7 @@ impl LinearSolver {
             cholesky: None,
             scratch: MemBuffer::new(StackReq::EMPTY),
             factorized: false,
+            factor: Vec::new(),
         }
     }
 
@@ -363,8 +366,9 @@ impl LinearSolver {
         };
         c.gather(matrix.val(), shift);
         let c = &mut **c;
+        self.factor.resize(c.symbolic.len_val(), 0.0);
         let result = factorize_supernodal_numeric_llt(
-            &mut c.llt,
+            &mut self.factor,
             SparseColMatRef::new(c.ordered.as_ref(), &c.values),
             LltRegularization::default(),
             supernodes(&c.symbolic),
@@ -383,6 +387,20 @@ impl LinearSolver {
     /// Forget the numeric factorisation (the symbolic one stays).
     pub fn invalidate(&mut self) {
         self.factorized = false;
+    }
+
+    /// The factor's storage, for another solver to factorise into
+    /// ([`LinearSolver::give_factor`]); this one's factorisation is gone.
+    pub fn take_factor(&mut self) -> Vec<f64> {
+        self.factorized = false;
+        std::mem::take(&mut self.factor)
+    }
+
+    /// Storage to factorise into from now on, in place of the solver's own; its contents do
+    /// not matter.
+    pub fn give_factor(&mut self, storage: Vec<f64>) {
+        self.factorized = false;
+        self.factor = storage;
     }
 
     /// Whether a pattern has been analysed.
@@ -405,7 +423,7 @@ impl LinearSolver {
                 *w = rhs[dof];
             }
             let scratch = (&mut c.below, &mut c.column_dots);
-            solve_llt(supernodes(&c.symbolic), &c.llt, &mut c.work, scratch);
+            solve_llt(supernodes(&c.symbolic), &self.factor, &mut c.work, scratch);
             for (r, &pivot) in rhs.iter_mut().zip(inverse) {
                 *r = c.work[pivot];
             }
@@ -417,7 +435,8 @@ impl LinearSolver {
     /// Pivots of an `L D L^T` of `matrix` (symmetric, in the analysed pattern, scaled so that
     /// its pivots are of order one) below `-threshold`. Pivots within `threshold` of zero
     /// (rattlers, free rotations: a singular direction) are taken as zero and not counted.
-    /// The `L L^T` kept for solves is left as it was.
+    /// It takes the storage of the `L L^T`, which must be factorised anew before the next
+    /// solve.
     pub fn negative_pivots(
         &mut self,
         matrix: SparseColMatRef<'_, usize, f64>,
@@ -425,12 +444,13 @@ impl LinearSolver {
         stats: &mut SolverStats,
     ) -> Result<usize, NotFactorizable> {
         let start = Instant::now();
+        self.factorized = false;
         let Some(c) = &mut self.cholesky else {
             return Err(NotFactorizable("no symbolic factorisation".into()));
         };
         c.gather(matrix.val(), &[]);
         let c = &mut **c;
-        c.ldlt.resize(c.symbolic.len_val(), 0.0);
+        self.factor.resize(c.symbolic.len_val(), 0.0);
         // Pivots within the threshold are set to +-threshold, so that none is zero.
         let regularization = LdltRegularization {
             dynamic_regularization_signs: None,
@@ -438,7 +458,7 @@ impl LinearSolver {
             dynamic_regularization_epsilon: threshold,
         };
         let result = factorize_supernodal_numeric_ldlt(
-            &mut c.ldlt,
+            &mut self.factor,
             SparseColMatRef::new(c.ordered.as_ref(), &c.values),
             regularization,
             supernodes(&c.symbolic),
@@ -450,7 +470,10 @@ impl LinearSolver {
         stats.timers.factorisation += secs(start);
         result.map_err(|e| NotFactorizable(format!("{e:?}")))?;
         // A supernode's diagonal block holds its pivots on its diagonal.
-        let factor = SupernodalLdltRef::new(supernodes(&c.symbolic), &c.ldlt);
+        let factor = SupernodalLdltRef::new(
+            supernodes(&c.symbolic),
+            &self.factor[..c.symbolic.len_val()],
+        );
         Ok((0..factor.symbolic().n_supernodes())
             .map(|k| {
                 let block = factor.supernode(k).val();
