@@ -414,14 +414,13 @@ pub fn minimise(
             }
             by_rows.clear();
             by_rows.extend(row_order.iter().map(|&p| consistent[p]));
-            // The consistent tangent is regularised as the Hessian is (Levenberg-Marquardt's
-            // share at this iterate's factor and the floor of rows with no stiffness): a
-            // grain whose contacts all slide has no stiffness along its turn in either, its
-            // contacts' forces not depending on it, and unregularised the step turns it
-            // without bound, so that no share of it lowers the residual (a grain perched on
-            // two contacts at the friction angle held the 10,000-grain cylinder's increment
-            // 4 for 10,141 iterations so). The share fades as the steps are taken (tenfold
-            // down after each), and the step is Newton's again near the answer.
+            // The consistent tangent is regularised as the Hessian is (`regularise` with the
+            // present Levenberg-Marquardt factor: its share on every row, and the floor of rows
+            // with no stiffness). A grain whose contacts all slide has no stiffness along its
+            // turn in either, its contacts' forces not depending on it: unregularised, the step
+            // turns it without bound and no share of the step lowers the residual
+            // (docs/minimise.md, "The semi-smooth step regularised as the Hessian is, kept").
+            // The share falls tenfold after each step taken; the floor stays.
             regularise(eq, values, diagonal, lm, &mut regularised);
             let mut solve = |linear: &mut LinearSolver, du: &mut [f64], stats: &mut SolverStats| {
                 du.fill(0.0);
