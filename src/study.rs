@@ -2,13 +2,15 @@
 //! tolerances and by the grain-by-grain relaxation over a range of sweeps per increment
 //! (`n_i`) and of tolerances, each run compared increment by increment with a reference (the
 //! global solver near machine precision): the wall stresses and the macro stress (eq. A.41) relative to
-//! the reference's, the grain positions in mean radii (of the grains the reference holds:
-//! a rattler's place no force fixes), and the run's own relative residual, against the CPU
-//! time the run took.
+//! the reference's, the grain positions in mean radii (of the grains the reference holds,
+//! up to the motions no force fixes: a rattler in its cage, a free sample's rigid motion, a
+//! box's sideways shift), and the run's own relative residual, against the CPU time the run
+//! took.
 
 use crate::contact::Contact;
-use crate::geometry::Side;
+use crate::geometry::{Side, Wall};
 use crate::measure::Measurements;
+use crate::scene::WallControl;
 use crate::simulation::Simulation;
 use crate::solver::{SolverConfig, Strategy};
 use crate::{Error, NumericError};
@@ -116,6 +118,8 @@ pub struct Track {
     /// fixed only up to a rigid motion, which the global solver's anchors choose and the
     /// relaxation leaves free.
     pub floating: bool,
+    /// Unit directions of the translations the walls leave free ([`free_translations`]).
+    pub free_translations: Vec<[f64; 2]>,
     /// Why the run stopped early, if it did.
     pub failure: Option<NumericError>,
 }
@@ -137,6 +141,7 @@ pub fn track(sim: &mut Simulation, mut on_increment: impl FnMut(usize)) -> Track
     let mut out = Track {
         r_mean: sim.mean_radius(),
         floating: sim.state.walls.is_empty(),
+        free_translations: free_translations(&sim.state.walls.walls),
         ..Default::default()
     };
     while !sim.is_finished() {
@@ -170,6 +175,35 @@ pub fn track(sim: &mut Simulation, mut on_increment: impl FnMut(usize)) -> Track
     }
     out.factorisations = sim.stats.counters.numeric_factorisations;
     out
+}
+
+/// Unit directions along which the sample can be translated, with the stress-controlled walls
+/// following, without any force changing: every wall smooth (`f_gw = 0`) and flat and
+/// unturned, and those held in place all lying across the translation. A biaxial box with its
+/// sides under stress is such a sample sideways, its place there fixed by no force: the
+/// solvers' paths put it where they put it, and the study fits it away.
+pub fn free_translations(walls: &[Wall]) -> Vec<[f64; 2]> {
+    if walls
+        .iter()
+        .any(|w| w.friction != 0.0 || w.circle.is_some() || w.turn != 0.0)
+    {
+        return Vec::new();
+    }
+    let held: Vec<[f64; 2]> = (walls.iter())
+        .filter(|w| w.control == WallControl::Displacement)
+        .map(|w| w.normal)
+        .collect();
+    match held.first() {
+        None => vec![[1.0, 0.0], [0.0, 1.0]],
+        Some(n)
+            if held
+                .iter()
+                .all(|m| (n[0] * m[1] - n[1] * m[0]).abs() < 1e-12) =>
+        {
+            vec![[-n[1], n[0]]]
+        }
+        Some(_) => Vec::new(),
+    }
 }
 
 /// Share of the mean contact force a contact must press with to hold a grain: far below any
@@ -251,7 +285,7 @@ pub fn compare(run: &Track, reference: &Track) -> Vec<IncrementError> {
             let positions = if reference.floating {
                 rigidly_fitted(&run_held, &reference_held)
             } else {
-                run_held
+                translated_along(&run_held, &reference_held, &reference.free_translations)
             };
             let moved: Vec<f64> = positions
                 .iter()
@@ -268,6 +302,28 @@ pub fn compare(run: &Track, reference: &Track) -> Vec<IncrementError> {
             }
         })
         .collect()
+}
+
+/// `points` moved along each of the unit `directions` (orthogonal) by the mean distance
+/// that separates them from `target` along it.
+fn translated_along(
+    points: &[[f64; 2]],
+    target: &[[f64; 2]],
+    directions: &[[f64; 2]],
+) -> Vec<[f64; 2]> {
+    let n = points.len().max(1) as f64;
+    let mut out = points.to_vec();
+    for d in directions {
+        let mean = (points.iter().zip(target))
+            .map(|(p, q)| (q[0] - p[0]) * d[0] + (q[1] - p[1]) * d[1])
+            .sum::<f64>()
+            / n;
+        for p in &mut out {
+            p[0] += mean * d[0];
+            p[1] += mean * d[1];
+        }
+    }
+    out
 }
 
 /// `points` moved by the rigid motion (rotation about their centroid, then translation)
@@ -417,7 +473,9 @@ pub fn markdown(scene: &str, reference: &Track, rows: &[StudyRow]) -> String {
          Errors are the largest over the increments: macro stress (eq. A.41) and wall \
          stresses relative to the reference's largest component, grain positions in mean \
          radii over the grains a contact holds in the reference (up to {} rattlers, held by \
-         none, left out: no force fixes their place); the residual is the run's own.\n",
+         none, left out), after fitting away the motion no force fixes (a sample without \
+         walls: a rigid motion; a box with smooth walls and its sides under stress: a \
+         shift sideways); the residual is the run's own.\n",
         reference.cpu,
         reference.iterations,
         reference.cuts,
@@ -566,8 +624,66 @@ mod tests {
             moved[1][0] += 1e-3;
             let run = one_increment(moved, vec![true; 4], floating);
             let e = compare(&run, &reference)[0];
-            assert!(e.displacement > 1e-4 && e.displacement <= 1e-3 + 1e-15, "{e:?}");
+            assert!(
+                e.displacement > 1e-4 && e.displacement <= 1e-3 + 1e-15,
+                "{e:?}"
+            );
         }
+    }
+
+    /// A flat smooth wall with inward normal `normal` under `control`.
+    fn wall(normal: [f64; 2], control: WallControl) -> Wall {
+        Wall {
+            name: String::new(),
+            normal,
+            offset: 0.0,
+            pivot: [0.0; 2],
+            turn: 0.0,
+            position: 0.0,
+            slide: 0.0,
+            control,
+            stress: 0.0,
+            length: None,
+            friction: 0.0,
+            circle: None,
+        }
+    }
+
+    #[test]
+    fn a_box_with_its_sides_under_stress_is_free_sideways_only_when_smooth() {
+        use WallControl::{Displacement, Stress};
+        let mut walls = vec![
+            wall([0.0, 1.0], Displacement),
+            wall([-1.0, 0.0], Stress),
+            wall([0.0, -1.0], Displacement),
+            wall([1.0, 0.0], Stress),
+        ];
+        let free = free_translations(&walls);
+        assert_eq!(free.len(), 1);
+        assert!(
+            (free[0][0].abs() - 1.0).abs() < 1e-15 && free[0][1] == 0.0,
+            "{free:?}"
+        );
+        walls[1].control = Displacement;
+        assert!(free_translations(&walls).is_empty());
+        walls[1].control = Stress;
+        walls[0].friction = 0.6;
+        assert!(free_translations(&walls).is_empty());
+    }
+
+    #[test]
+    fn a_free_sideways_shift_is_fitted_away_and_a_held_one_is_not() {
+        let grains = vec![[0.0, 0.0], [2.0, 0.0], [0.0, 2.0], [2.0, 2.0]];
+        let mut moved: Vec<[f64; 2]> = grains.iter().map(|p| [p[0] + 0.3, p[1] + 0.2]).collect();
+        moved[1][0] += 4e-3;
+        let mut reference = one_increment(grains, vec![true; 4], false);
+        let run = one_increment(moved, vec![true; 4], false);
+        let held = compare(&run, &reference)[0].displacement;
+        assert!((held - (0.3f64 + 4e-3).hypot(0.2)).abs() < 1e-12, "{held}");
+        reference.free_translations = vec![[1.0, 0.0]];
+        let free = compare(&run, &reference)[0].displacement;
+        // Sideways, the mean shift (0.301) is fitted away, leaving 3e-3 and 1e-3; upwards not.
+        assert!((free - 3e-3f64.hypot(0.2)).abs() < 1e-12, "{free}");
     }
 
     #[test]
