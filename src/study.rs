@@ -210,7 +210,7 @@ pub fn free_translations(walls: &[Wall]) -> Vec<[f64; 2]> {
 /// tolerance the study runs at, far above the forces of pairs that touch to round-off.
 const HOLDING: f64 = 1e-8;
 
-/// Whether a contact presses on each of `grains` grains with more than [`HOLDING`] of the
+/// Whether a contact presses on each of `grains` grains with more than `HOLDING` (1e-8) of the
 /// mean contact force, or bonds it. A grain held by none (a rattler in its cage) is in
 /// equilibrium anywhere in the cage: no force fixes its place, and the solvers leave it where
 /// their paths put it.
