@@ -613,6 +613,33 @@ mod tests {
     }
 
     #[test]
+    fn a_grain_is_held_by_a_pressing_or_bonded_contact_only() {
+        use crate::contact::{Contact, ContactParams};
+        use crate::geometry::Pair;
+        let params = ContactParams {
+            stiffness: 1.0,
+            kappa: 1.0,
+            friction: 0.5,
+            strength: 0.0,
+        };
+        let contact = |a: Side, b: usize, force: f64, bonded: bool| {
+            let mut c = Contact::new(Pair { a, b }, params, bonded);
+            c.response.normal_force = force;
+            c
+        };
+        // Grain 0 pressed on a wall, 1 and 2 pressed together, 3 touching 2 to round-off,
+        // 4 bonded to 5 without force, 6 touching nothing.
+        let contacts = [
+            contact(Side::Wall(0), 0, 2.0, false),
+            contact(Side::Grain(1), 2, 1.0, false),
+            contact(Side::Grain(2), 3, 1e-13, false),
+            contact(Side::Grain(4), 5, 0.0, true),
+        ];
+        let held = held_grains(&contacts, 7);
+        assert_eq!(held, [true, true, true, false, true, true, false]);
+    }
+
+    #[test]
     fn a_rattler_is_left_out_of_the_displacement_error() {
         let grains = vec![[0.0, 0.0], [2.0, 0.0], [0.0, 2.0], [1.0, 1.0]];
         let held = vec![true, true, true, false];
