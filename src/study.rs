@@ -114,12 +114,8 @@ pub struct Track {
     pub cuts: usize,
     /// Mean grain radius (m).
     pub r_mean: f64,
-    /// Whether nothing holds the sample in place (no walls): its grain positions are then
-    /// fixed only up to a rigid motion, which the global solver's anchors choose and the
-    /// relaxation leaves free.
-    pub floating: bool,
-    /// Unit directions of the translations the walls leave free ([`free_translations`]).
-    pub free_translations: Vec<[f64; 2]>,
+    /// The motion of the whole sample that no force fixes ([`free_motion`]).
+    pub free_motion: FreeMotion,
     /// Why the run stopped early, if it did.
     pub failure: Option<NumericError>,
 }
@@ -140,8 +136,7 @@ pub fn cpu_seconds() -> f64 {
 pub fn track(sim: &mut Simulation, mut on_increment: impl FnMut(usize)) -> Track {
     let mut out = Track {
         r_mean: sim.mean_radius(),
-        floating: sim.state.walls.is_empty(),
-        free_translations: free_translations(&sim.state.walls.walls),
+        free_motion: free_motion(&sim.state.walls.walls),
         ..Default::default()
     };
     while !sim.is_finished() {
@@ -177,32 +172,47 @@ pub fn track(sim: &mut Simulation, mut on_increment: impl FnMut(usize)) -> Track
     out
 }
 
-/// Unit directions along which the sample can be translated, with the stress-controlled walls
-/// following, without any force changing: every wall smooth (`f_gw = 0`) and flat and
-/// unturned, and those held in place all lying across the translation. A biaxial box with its
-/// sides under stress is such a sample sideways, its place there fixed by no force: the
-/// solvers' paths put it where they put it, and the study fits it away.
-pub fn free_translations(walls: &[Wall]) -> Vec<[f64; 2]> {
+/// The motion of the whole sample that no force fixes: the solvers' paths put the sample
+/// where they put it, and the study fits that motion away before it compares grain places.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub enum FreeMotion {
+    /// The walls hold the sample in place.
+    #[default]
+    None,
+    /// A rigid motion: no walls, the place fixed only by the global solver's anchors, which
+    /// the relaxation does not have.
+    Rigid,
+    /// Translations along these unit directions, the stress-controlled walls following.
+    Along(Vec<[f64; 2]>),
+}
+
+/// The sample's [`FreeMotion`] between `walls`. A translation changes no force where every
+/// wall is smooth (`f_gw = 0`), flat and unturned, and those held in place all lie across
+/// it: a biaxial box with its sides under stress is free sideways.
+pub fn free_motion(walls: &[Wall]) -> FreeMotion {
+    if walls.is_empty() {
+        return FreeMotion::Rigid;
+    }
     if walls
         .iter()
         .any(|w| w.friction != 0.0 || w.circle.is_some() || w.turn != 0.0)
     {
-        return Vec::new();
+        return FreeMotion::None;
     }
     let held: Vec<[f64; 2]> = (walls.iter())
         .filter(|w| w.control == WallControl::Displacement)
         .map(|w| w.normal)
         .collect();
     match held.first() {
-        None => vec![[1.0, 0.0], [0.0, 1.0]],
+        None => FreeMotion::Along(vec![[1.0, 0.0], [0.0, 1.0]]),
         Some(n)
             if held
                 .iter()
                 .all(|m| (n[0] * m[1] - n[1] * m[0]).abs() < 1e-12) =>
         {
-            vec![[-n[1], n[0]]]
+            FreeMotion::Along(vec![[-n[1], n[0]]])
         }
-        Some(_) => Vec::new(),
+        Some(_) => FreeMotion::None,
     }
 }
 
@@ -282,10 +292,12 @@ pub fn compare(run: &Track, reference: &Track) -> Vec<IncrementError> {
                     .collect()
             };
             let (run_held, reference_held) = (held(&run.position[k]), held(&reference.position[k]));
-            let positions = if reference.floating {
-                rigidly_fitted(&run_held, &reference_held)
-            } else {
-                translated_along(&run_held, &reference_held, &reference.free_translations)
+            let positions = match &reference.free_motion {
+                FreeMotion::None => run_held,
+                FreeMotion::Rigid => rigidly_fitted(&run_held, &reference_held),
+                FreeMotion::Along(directions) => {
+                    translated_along(&run_held, &reference_held, directions)
+                }
             };
             let moved: Vec<f64> = positions
                 .iter()
@@ -599,7 +611,7 @@ mod tests {
     use super::*;
 
     /// A track of one increment with the grains at `position`, `held` as given.
-    fn one_increment(position: Vec<[f64; 2]>, held: Vec<bool>, floating: bool) -> Track {
+    fn one_increment(position: Vec<[f64; 2]>, held: Vec<bool>, free_motion: FreeMotion) -> Track {
         Track {
             macro_stress: vec![[[1.0, 0.0], [0.0, 1.0]]],
             wall_stress: vec![Vec::new()],
@@ -607,7 +619,7 @@ mod tests {
             held: vec![held],
             residual: vec![0.0],
             r_mean: 1.0,
-            floating,
+            free_motion,
             ..Default::default()
         }
     }
@@ -643,13 +655,13 @@ mod tests {
     fn a_rattler_is_left_out_of_the_displacement_error() {
         let grains = vec![[0.0, 0.0], [2.0, 0.0], [0.0, 2.0], [1.0, 1.0]];
         let held = vec![true, true, true, false];
-        for floating in [false, true] {
-            let reference = one_increment(grains.clone(), held.clone(), floating);
+        for free_motion in [FreeMotion::None, FreeMotion::Rigid] {
+            let reference = one_increment(grains.clone(), held.clone(), free_motion);
             let mut moved = grains.clone();
             // The rattler moves across its cage, a held grain by a little.
             moved[3] = [1.4, 0.7];
             moved[1][0] += 1e-3;
-            let run = one_increment(moved, vec![true; 4], floating);
+            let run = one_increment(moved, vec![true; 4], FreeMotion::None);
             let e = compare(&run, &reference)[0];
             assert!(
                 e.displacement > 1e-4 && e.displacement <= 1e-3 + 1e-15,
@@ -685,17 +697,20 @@ mod tests {
             wall([0.0, -1.0], Displacement),
             wall([1.0, 0.0], Stress),
         ];
-        let free = free_translations(&walls);
+        let FreeMotion::Along(free) = free_motion(&walls) else {
+            panic!("not free: {:?}", free_motion(&walls));
+        };
         assert_eq!(free.len(), 1);
         assert!(
             (free[0][0].abs() - 1.0).abs() < 1e-15 && free[0][1] == 0.0,
             "{free:?}"
         );
         walls[1].control = Displacement;
-        assert!(free_translations(&walls).is_empty());
+        assert_eq!(free_motion(&walls), FreeMotion::None);
         walls[1].control = Stress;
         walls[0].friction = 0.6;
-        assert!(free_translations(&walls).is_empty());
+        assert_eq!(free_motion(&walls), FreeMotion::None);
+        assert_eq!(free_motion(&[]), FreeMotion::Rigid);
     }
 
     #[test]
@@ -703,11 +718,11 @@ mod tests {
         let grains = vec![[0.0, 0.0], [2.0, 0.0], [0.0, 2.0], [2.0, 2.0]];
         let mut moved: Vec<[f64; 2]> = grains.iter().map(|p| [p[0] + 0.3, p[1] + 0.2]).collect();
         moved[1][0] += 4e-3;
-        let mut reference = one_increment(grains, vec![true; 4], false);
-        let run = one_increment(moved, vec![true; 4], false);
+        let mut reference = one_increment(grains, vec![true; 4], FreeMotion::None);
+        let run = one_increment(moved, vec![true; 4], FreeMotion::None);
         let held = compare(&run, &reference)[0].displacement;
         assert!((held - (0.3f64 + 4e-3).hypot(0.2)).abs() < 1e-12, "{held}");
-        reference.free_translations = vec![[1.0, 0.0]];
+        reference.free_motion = FreeMotion::Along(vec![[1.0, 0.0]]);
         let free = compare(&run, &reference)[0].displacement;
         // Sideways, the mean shift (0.301) is fitted away, leaving 3e-3 and 1e-3; upwards not.
         assert!((free - 3e-3f64.hypot(0.2)).abs() < 1e-12, "{free}");
