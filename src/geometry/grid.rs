@@ -1,5 +1,6 @@
-//! A cell grid over grain centres: cells at least as wide as the largest distance asked
-//! about, so the grains near a point are those in the 3x3 cells around it.
+//! A cell grid over grain centres: with cells at least as wide as the largest distance asked
+//! about, the grains near a point are those in the 3x3 cells around it ([`CellGrid::near`]);
+//! with narrower cells, those in the cells a square around it covers ([`CellGrid::within`]).
 
 /// Grain indices sorted into square cells (a counting sort: `start[k]..start[k + 1]` indexes
 /// `members` for cell `k`).
@@ -85,6 +86,19 @@ impl CellGrid {
         rows.flat_map(move |rr| {
             let k = rr * self.cols;
             let (c0, c1) = (c.saturating_sub(1), (c + 1).min(self.cols - 1));
+            self.members[self.start[k + c0]..self.start[k + c1 + 1]]
+                .iter()
+                .copied()
+        })
+    }
+
+    /// The grains in the cells that the square of half-width `distance` about `p` covers:
+    /// every grain whose centre is within `distance` of `p` along both axes, and some more.
+    pub fn within(&self, p: [f64; 2], distance: f64) -> impl Iterator<Item = usize> + '_ {
+        let (c0, r0) = self.cell_of([p[0] - distance, p[1] - distance]);
+        let (c1, r1) = self.cell_of([p[0] + distance, p[1] + distance]);
+        (r0..=r1).flat_map(move |r| {
+            let k = r * self.cols;
             self.members[self.start[k + c0]..self.start[k + c1 + 1]]
                 .iter()
                 .copied()

@@ -109,16 +109,7 @@ impl Membrane {
             return Chain::default();
         }
         let r_mean = radius.iter().sum::<f64>() / radius.len() as f64;
-        let r_max = radius.iter().cloned().fold(0.0, f64::max);
-        let probe = PROBE_RADII * r_mean;
-        let roll = Roll {
-            position,
-            radius,
-            carrying,
-            probe,
-            grid: CellGrid::new(position, 2.0 * (r_max + probe)),
-            reached: RefCell::default(),
-        };
+        let roll = Roll::new(position, radius, carrying, PROBE_RADII * r_mean);
         let dot = |u: [f64; 2], v: [f64; 2]| u[0] * v[0] + u[1] * v[1];
         // The last of the grains that reach furthest.
         let outermost = |reach: &dyn Fn(usize) -> f64| {
@@ -217,12 +208,35 @@ struct Roll<'a> {
     /// Grains the probe rests on; it passes through the others.
     carrying: &'a [bool],
     probe: f64,
+    /// The largest grain's radius and the probe's: a grain is within the probe's reach of a
+    /// pivot `r_i + probe` from it when its centre is within `r_i + widest` of the pivot's.
+    widest: f64,
+    /// Cells `widest` across: a pivot's reach spans at most five of them, which holds fewer
+    /// grains out of reach than three of twice the width.
     grid: CellGrid,
     /// The grains within the probe's reach of the pivot, with their estimated turns.
     reached: RefCell<Vec<(f64, usize)>>,
 }
 
-impl Roll<'_> {
+impl<'a> Roll<'a> {
+    fn new(
+        position: &'a [[f64; 2]],
+        radius: &'a [f64],
+        carrying: &'a [bool],
+        probe: f64,
+    ) -> Roll<'a> {
+        let widest = radius.iter().cloned().fold(0.0, f64::max) + probe;
+        Roll {
+            position,
+            radius,
+            carrying,
+            probe,
+            widest,
+            grid: CellGrid::new(position, widest),
+            reached: RefCell::default(),
+        }
+    }
+
     /// The grains from `start` on a side, the probe rolling from the direction `facing`
     /// (anticlockwise for `sense` 1, clockwise for -1) until it would turn more than a quarter
     /// turn away from `facing`, round the side's end.
@@ -273,7 +287,8 @@ impl Roll<'_> {
         let facing = [angle.cos(), angle.sin()];
         let mut reached = self.reached.borrow_mut();
         reached.clear();
-        for j in self.grid.near(p) {
+        let window = (a + self.widest) * (1.0 + SQUARED_DOUBT);
+        for j in self.grid.within(p, window) {
             let q = self.position[j];
             let b = self.radius[j] + self.probe;
             let branch = [q[0] - p[0], q[1] - p[1]];
@@ -468,16 +483,8 @@ mod tests {
             let radius: Vec<f64> = (0..n).map(|_| rng.random_range(0.3..1.5)).collect();
             let carrying: Vec<bool> = (0..n).map(|_| rng.random_bool(0.9)).collect();
             let r_mean = radius.iter().sum::<f64>() / n as f64;
-            let r_max = radius.iter().cloned().fold(0.0, f64::max);
             let probe = PROBE_RADII * r_mean;
-            let roll = Roll {
-                position: &position,
-                radius: &radius,
-                carrying: &carrying,
-                probe,
-                grid: CellGrid::new(&position, 2.0 * (r_max + probe)),
-                reached: RefCell::default(),
-            };
+            let roll = Roll::new(&position, &radius, &carrying, probe);
             for _ in 0..20 {
                 let i = rng.random_range(0..n);
                 let angle = rng.random_range(-4.0..4.0);
