@@ -82,14 +82,11 @@ impl CellGrid {
     /// some further ones.
     pub fn near(&self, p: [f64; 2]) -> impl Iterator<Item = usize> + '_ {
         let (c, r) = self.cell_of(p);
-        let rows = r.saturating_sub(1)..=(r + 1).min(self.rows - 1);
-        rows.flat_map(move |rr| {
-            let k = rr * self.cols;
-            let (c0, c1) = (c.saturating_sub(1), (c + 1).min(self.cols - 1));
-            self.members[self.start[k + c0]..self.start[k + c1 + 1]]
-                .iter()
-                .copied()
-        })
+        self.block(
+            c.saturating_sub(1),
+            (c + 1).min(self.cols - 1),
+            r.saturating_sub(1)..=(r + 1).min(self.rows - 1),
+        )
     }
 
     /// The grains in the cells that the square of half-width `distance` about `p` covers:
@@ -97,7 +94,18 @@ impl CellGrid {
     pub fn within(&self, p: [f64; 2], distance: f64) -> impl Iterator<Item = usize> + '_ {
         let (c0, r0) = self.cell_of([p[0] - distance, p[1] - distance]);
         let (c1, r1) = self.cell_of([p[0] + distance, p[1] + distance]);
-        (r0..=r1).flat_map(move |r| {
+        self.block(c0, c1, r0..=r1)
+    }
+
+    /// The grains in the cells of columns `c0..=c1` in `rows`, row by row: one slice of
+    /// `members` a row.
+    fn block(
+        &self,
+        c0: usize,
+        c1: usize,
+        rows: std::ops::RangeInclusive<usize>,
+    ) -> impl Iterator<Item = usize> + '_ {
+        rows.flat_map(move |r| {
             let k = r * self.cols;
             self.members[self.start[k + c0]..self.start[k + c1 + 1]]
                 .iter()

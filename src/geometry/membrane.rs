@@ -287,6 +287,7 @@ impl<'a> Roll<'a> {
         let facing = [angle.cos(), angle.sin()];
         let mut reached = self.reached.borrow_mut();
         reached.clear();
+        // A hair wider than the reach, so that rounding at a cell's edge loses no grain.
         let window = (a + self.widest) * (1.0 + SQUARED_DOUBT);
         for j in self.grid.within(p, window) {
             let q = self.position[j];
