@@ -10,8 +10,7 @@ use grainstat::sample::{write_csv, write_sample};
 use grainstat::scene::{load_scene, load_solver, parse_scene, parse_solver};
 use grainstat::simulation::MaterialModel;
 use grainstat::simulation::Simulation;
-use grainstat::solver::{SolverConfig, Strategy};
-use grainstat::state::IncrementReport;
+use grainstat::solver::SolverConfig;
 use grainstat::study::{compare, markdown, track, write_tables, StudyPlan, StudyRow, Track};
 use grainstat::sweep;
 use grainstat::{Error, InputError};
@@ -509,13 +508,13 @@ fn run(
             sim.state.contacts.len()
         ));
         if !quiet {
-            say(log_line(sim, r));
+            say(grainstat::run::log_line(sim, r));
         }
     });
     bar.finish_and_clear();
     let path = file.path().to_path_buf();
     if !quiet {
-        eprintln!("{}", summary(&sim));
+        eprintln!("{}", grainstat::run::summary(&sim));
         eprintln!("results: {}", path.display());
     }
     // A failed run still has its last state on file. A stage loaded until failure ends at
@@ -551,82 +550,6 @@ fn run(
             Err(err)
         }
     }
-}
-
-/// One line per increment: solver effort, contacts, and the wall and macro stresses.
-fn log_line(sim: &Simulation, r: &IncrementReport) -> String {
-    let m = &r.measurements;
-    let walls: Vec<String> = sim
-        .state
-        .walls
-        .walls
-        .iter()
-        .zip(&m.wall_stress)
-        .map(|(w, s)| format!("{} {:.4e}", w.name, s))
-        .collect();
-    // The last residuals show the rate of convergence.
-    let tail = &sim.last_residuals[sim.last_residuals.len().saturating_sub(5)..];
-    let residuals: Vec<String> = tail.iter().map(|v| format!("{v:.1e}")).collect();
-    format!(
-        "inc {:>5} stage {}: {} it, {} pass, {} cuts, residuals [{}], {} negative \
-         pivots; contacts {} \
-         (+{} -{}), broken {}; walls [{}] Pa; macro xx {:.4e} yy {:.4e} xy {:.2e} Pa; \
-         energy: work {:.4e} J, imbalance {:.1e}",
-        r.increment,
-        r.stage,
-        r.newton_iterations,
-        r.topology_passes,
-        r.cuts,
-        residuals.join(" "),
-        r.negative_pivots
-            .map_or_else(|| "uncounted".to_string(), |n| n.to_string()),
-        m.grain_contacts + m.wall_contacts,
-        r.contacts_made,
-        r.contacts_lost,
-        m.broken_bonds,
-        walls.join(", "),
-        m.macro_stress[0][0],
-        m.macro_stress[1][1],
-        m.macro_stress[0][1],
-        r.energy.work,
-        r.energy.imbalance(),
-    )
-}
-
-/// The run's timers and counters.
-fn summary(sim: &Simulation) -> String {
-    let t = &sim.stats.timers;
-    let c = &sim.stats.counters;
-    format!(
-        "time [s]: detection {:.3}, return map {:.3}, assembly {:.3}, symbolic {:.3}, \
-         factorisation {:.3}, solve {:.3}, topology {:.3}, output {:.3}\n\
-         counts: {} increments, {} {}, {} symbolic and {} numeric \
-         factorisations, {} solves, {} passes, \
-         {} friends rebuilds, contacts +{} -{}, {} bonds broken, {} cuts",
-        t.detection,
-        t.return_map,
-        t.assembly,
-        t.symbolic,
-        t.factorisation,
-        t.solve,
-        t.topology,
-        t.output,
-        c.increments,
-        c.newton_iterations,
-        match sim.config.strategy {
-            Strategy::Minimise => "Newton iterations",
-            Strategy::Relaxation => "sweeps",
-        },
-        c.symbolic_factorisations,
-        c.numeric_factorisations,
-        c.solves,
-        c.topology_passes,
-        c.friends_rebuilds,
-        c.contacts_made,
-        c.contacts_lost,
-        c.bonds_broken,
-        c.cuts
-    )
 }
 
 /// Solver settings from a file, or from the preset shipped under `solvers/`.

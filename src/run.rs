@@ -1,13 +1,13 @@
 //! Running a simulation to the end of its load program: write the state every `every`
 //! increments (and the last), report each increment, and on failure write the last converged
-//! state before returning the error.
+//! state before returning the error; the line each increment prints and the run's summary.
 
 use crate::output::hdf5_file::read_history;
 use crate::output::{Mechanism, ResultFile, RunHeader};
 use crate::scene::{build_grains, Scene};
 use crate::simulation::Simulation;
 use crate::solver::stats::secs;
-use crate::solver::SolverConfig;
+use crate::solver::{SolverConfig, Strategy};
 use crate::state::{IncrementReport, PeakState};
 use crate::{Error, NumericError};
 use std::path::Path;
@@ -324,6 +324,82 @@ impl PeakForces {
             _ => vec![0.0; walls],
         }
     }
+}
+
+/// One line per increment: solver effort, contacts, and the wall and macro stresses.
+pub fn log_line(sim: &Simulation, r: &IncrementReport) -> String {
+    let m = &r.measurements;
+    let walls: Vec<String> = sim
+        .state
+        .walls
+        .walls
+        .iter()
+        .zip(&m.wall_stress)
+        .map(|(w, s)| format!("{} {:.4e}", w.name, s))
+        .collect();
+    // The last residuals show the rate of convergence.
+    let tail = &sim.last_residuals[sim.last_residuals.len().saturating_sub(5)..];
+    let residuals: Vec<String> = tail.iter().map(|v| format!("{v:.1e}")).collect();
+    format!(
+        "inc {:>5} stage {}: {} it, {} pass, {} cuts, residuals [{}], {} negative \
+         pivots; contacts {} \
+         (+{} -{}), broken {}; walls [{}] Pa; macro xx {:.4e} yy {:.4e} xy {:.2e} Pa; \
+         energy: work {:.4e} J, imbalance {:.1e}",
+        r.increment,
+        r.stage,
+        r.newton_iterations,
+        r.topology_passes,
+        r.cuts,
+        residuals.join(" "),
+        r.negative_pivots
+            .map_or_else(|| "uncounted".to_string(), |n| n.to_string()),
+        m.grain_contacts + m.wall_contacts,
+        r.contacts_made,
+        r.contacts_lost,
+        m.broken_bonds,
+        walls.join(", "),
+        m.macro_stress[0][0],
+        m.macro_stress[1][1],
+        m.macro_stress[0][1],
+        r.energy.work,
+        r.energy.imbalance(),
+    )
+}
+
+/// The run's timers and counters.
+pub fn summary(sim: &Simulation) -> String {
+    let t = &sim.stats.timers;
+    let c = &sim.stats.counters;
+    format!(
+        "time [s]: detection {:.3}, return map {:.3}, assembly {:.3}, symbolic {:.3}, \
+         factorisation {:.3}, solve {:.3}, topology {:.3}, output {:.3}\n\
+         counts: {} increments, {} {}, {} symbolic and {} numeric \
+         factorisations, {} solves, {} passes, \
+         {} friends rebuilds, contacts +{} -{}, {} bonds broken, {} cuts",
+        t.detection,
+        t.return_map,
+        t.assembly,
+        t.symbolic,
+        t.factorisation,
+        t.solve,
+        t.topology,
+        t.output,
+        c.increments,
+        c.newton_iterations,
+        match sim.config.strategy {
+            Strategy::Minimise => "Newton iterations",
+            Strategy::Relaxation => "sweeps",
+        },
+        c.symbolic_factorisations,
+        c.numeric_factorisations,
+        c.solves,
+        c.topology_passes,
+        c.friends_rebuilds,
+        c.contacts_made,
+        c.contacts_lost,
+        c.bonds_broken,
+        c.cuts
+    )
 }
 
 /// The `failure_drop` of stage `stage`, where it is loaded until failure.

@@ -4,16 +4,13 @@
 //! lists made anew wherever a step reaches their edge, bonds broken one at a time with the
 //! grains settled anew after each, then the commit.
 
-use super::{
-    anchors, friends_around, EnergyBalance, LoadStep, Simulation, CHAIN_CHANGES, REACH_REBUILD,
-};
-use crate::contact::{kinematics, BrokenBond, Configuration, Contact, ContactSet, Lag};
+use super::bonds::{bracketing_cuts, first_crossing};
+use super::{anchors, EnergyBalance, LoadStep, Simulation, CHAIN_CHANGES};
+use crate::contact::{ContactSet, Lag};
 use crate::solver::minimise::{self, MinimiseSettings, Potential, SystemMatrix};
-use crate::solver::stats::secs;
 use crate::state::{IncrementReport, PeakState, State};
 use crate::NumericError;
 use std::sync::Arc;
-use std::time::Instant;
 
 /// Passes of one minimisation that stop at the edge of the friends lists, at most. A grain
 /// that keeps going is caught long before by the runaway test (a diameter is a few passes).
@@ -21,7 +18,7 @@ const MAX_PASSES: usize = 200;
 
 /// Share of the load within which a limit load is bracketed (method note, step 4): a step
 /// that finds no equilibrium near is halved until it changes the load by at most this much.
-const BRACKET: f64 = 0.005;
+pub(super) const BRACKET: f64 = 0.005;
 
 /// Halvings of one increment, at most, in bracketing a limit load. A limit load of zero (a
 /// grain with nothing to hold it) is never bracketed as a share of the load: it is reported
@@ -626,131 +623,6 @@ impl Simulation {
             cuts: 0,
         })
     }
-
-    /// Every pair of the friends lists as a contact of the increment: those already in the
-    /// set as they are, the others fresh, with their overlap at the start of the increment
-    /// (a pair apart then counts its shear from where its surfaces touch). A contact the
-    /// lists no longer hold stays only while it carries or is bonded.
-    pub(super) fn engage_pairs(&mut self) {
-        let start = Instant::now();
-        let rest = Configuration::at_rest(&self.state.grains, &self.state.walls);
-        let mut existing = std::mem::take(&mut self.state.contacts.contacts).into_iter();
-        let mut next = existing.next();
-        let mut engaged = Vec::with_capacity(self.friends.pairs.len());
-        let mut outside = Vec::new();
-        for &pair in &self.friends.pairs {
-            // Contacts before this pair that the lists no longer hold.
-            while let Some(c) = next.take_if(|c| c.pair < pair) {
-                if c.bonded || c.overlap > 0.0 {
-                    outside.push(c);
-                }
-                next = existing.next();
-            }
-            if let Some(c) = next.take_if(|c| c.pair == pair) {
-                engaged.push(c);
-                next = existing.next();
-                continue;
-            }
-            let params = self
-                .material
-                .params(pair, &self.state.grains, &self.state.walls);
-            let mut c = Contact::new(pair, params, false);
-            c.start_overlap =
-                kinematics(pair, &self.state.grains, &self.state.walls, &rest).overlap;
-            c.overlap = c.start_overlap;
-            engaged.push(c);
-        }
-        outside.extend(
-            next.into_iter()
-                .chain(existing)
-                .filter(|c| c.bonded || c.overlap > 0.0),
-        );
-        if !outside.is_empty() {
-            engaged.append(&mut outside);
-            engaged.sort_by_key(|c| c.pair);
-        }
-        self.state.contacts.contacts = engaged;
-        self.index_pairs()
-            .expect("the friends lists hold every contact that carries");
-        self.stats.timers.topology += secs(start);
-    }
-
-    /// Make the friends lists anew around the grains and walls at `u` when something moved
-    /// past most of their reach.
-    fn renew_lists_if_far(&mut self, step: &LoadStep, u: &[f64]) -> Result<(), NumericError> {
-        self.equations(step).configure(u);
-        let wall_turn: Vec<f64> = (self.state.walls.walls.iter().zip(&step.turn))
-            .map(|(w, t)| w.turn + t)
-            .collect();
-        let drift = self
-            .friends
-            .drift(&self.q.position, &self.q.wall_position, &wall_turn);
-        if drift > REACH_REBUILD * 0.5 * self.friends.skin {
-            self.renew_lists(step, u)?;
-        }
-        Ok(())
-    }
-
-    /// The friends lists made anew around the grains and walls at `u`, with their pattern,
-    /// the membranes' chains where the grains are, and every new pair engaged.
-    fn renew_lists(&mut self, step: &LoadStep, u: &[f64]) -> Result<(), NumericError> {
-        self.equations(step).configure(u);
-        let start = Instant::now();
-        let mut grains = self.state.grains.clone();
-        grains.position.clone_from(&self.q.position);
-        let mut walls = self.state.walls.clone();
-        for (w, wall) in walls.walls.iter_mut().enumerate() {
-            wall.position = self.q.wall_position[w];
-            wall.slide += step.slide[w];
-            wall.turn += step.turn[w];
-        }
-        let carrying: Vec<_> = self
-            .state
-            .contacts
-            .contacts
-            .iter()
-            .filter(|c| c.bonded || c.overlap > 0.0)
-            .map(|c| c.pair)
-            .collect();
-        let friends = friends_around(&grains, &walls, self.config.skin * self.r_mean, &carrying);
-        self.state.friends_reference.clone_from(&friends.reference);
-        self.state
-            .friends_wall_reference
-            .clone_from(&friends.wall_reference);
-        self.friends = friends;
-        self.stats.counters.friends_rebuilds += 1;
-        self.stats.timers.detection += secs(start);
-        self.engage_pairs();
-        self.install_pattern()?;
-        self.refresh_chains(true)?;
-        Ok(())
-    }
-
-    /// Break the bond most past its strength, if any (method note, step 5): the one whose
-    /// force is the largest multiple of what it can carry. Returns whether one broke.
-    fn break_most_overloaded_bond(&mut self) -> bool {
-        let set = &mut self.state.contacts;
-        let worst = set
-            .contacts
-            .iter()
-            .enumerate()
-            .filter_map(|(i, c)| c.bond_overload().map(|(ratio, mode)| (i, ratio, mode)))
-            .max_by(|a, b| a.1.total_cmp(&b.1).then(b.0.cmp(&a.0)));
-        let Some((i, _, mode)) = worst else {
-            return false;
-        };
-        let c = &mut set.contacts[i];
-        self.energy.bonds_released += super::energy::bond_energy(self.law.as_ref(), c);
-        c.bonded = false;
-        c.broken = true;
-        set.broken_bonds.push(BrokenBond {
-            pair: c.pair,
-            increment: self.state.increment + 1,
-            mode,
-        });
-        self.stats.counters.bonds_broken += 1;
-        true
-    }
 }
 
 /// A cascade's equilibrium that dropped the load (see [`Simulation::drop_floor`]): the
@@ -765,45 +637,6 @@ struct Dropped {
     residuals: Vec<f64>,
 }
 
-/// The share of a step at which the first bond reaches its strength, its margin
-/// ([`Contact::bond_margin`]) interpolated linearly between the step's start (`committed`)
-/// and its end (`reached`, where some bond is past its strength): below its strength at the
-/// start, a bond's forces follow the load almost linearly while it holds.
-fn first_crossing(committed: &ContactSet, reached: &ContactSet) -> f64 {
-    let mut crossing = 1.0f64;
-    for c in &reached.contacts {
-        let Some(end) = c.bond_margin().filter(|&m| m > 0.0) else {
-            continue;
-        };
-        let start = committed
-            .contacts
-            .binary_search_by(|d| d.pair.cmp(&c.pair))
-            .ok()
-            .and_then(|i| committed.contacts[i].bond_margin())
-            .filter(|&m| m < 0.0);
-        let at = start.map_or(0.0, |m| m / (m - end));
-        crossing = crossing.min(at);
-    }
-    crossing
-}
-
-/// Where to cut a step whose end has a bond past its strength, `bracket` being the share of
-/// the step that changes the load by [`BRACKET`]: a part that ends half a bracket short of
-/// the predicted `crossing`, then one that goes 0.9 of a bracket on from there, within
-/// which the bond breaks where the prediction holds (a crossing within a bracket of the
-/// start: that part alone). Where it does not, each part is cut again from its own ends, a
-/// secant search; the bond still breaks within a bracket of its load. Bisection takes
-/// `log2(1 / bracket)` parts, each a minimisation, to the same end.
-fn bracketing_cuts(crossing: f64, bracket: f64) -> Vec<f64> {
-    let cuts = if crossing > bracket {
-        let below = crossing - 0.5 * bracket;
-        vec![below, below + 0.9 * bracket]
-    } else {
-        vec![0.9 * bracket]
-    };
-    cuts.into_iter().filter(|&c| c < 1.0).collect()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -812,20 +645,6 @@ mod tests {
     use crate::solver::{Potential, SolverConfig, Strategy};
     use rand::{Rng, SeedableRng};
     use std::path::Path;
-
-    #[test]
-    fn bracketing_cuts_straddle_the_predicted_break_within_one_bracket() {
-        // A bracket of a tenth of the step, the bond predicted to break at 0.62: a part to
-        // 0.57, then one to 0.66, which holds the break and changes the load by 0.9 brackets.
-        let cuts = bracketing_cuts(0.62, 0.1);
-        assert_eq!(cuts.len(), 2);
-        assert!((cuts[0] - 0.57).abs() < 1e-12 && (cuts[1] - 0.66).abs() < 1e-12);
-        // Within a bracket of the start: one part of 0.9 brackets holds it.
-        let cuts = bracketing_cuts(0.05, 0.1);
-        assert!(cuts.len() == 1 && (cuts[0] - 0.09).abs() < 1e-12);
-        // Near the end: the cut past the end goes.
-        assert_eq!(bracketing_cuts(0.99, 0.1).len(), 1);
-    }
 
     /// The minimisation's potential against its residual: along a random direction `v` from
     /// a random `u` (lag held), the central difference of the contacts' energy less the

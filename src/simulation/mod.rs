@@ -3,11 +3,13 @@
 //! potential) or by grain-by-grain relaxation.
 
 mod anchors;
+mod bonds;
 mod breakout;
 mod energy;
 mod equations;
 mod grain_balance;
 mod increment;
+mod lists;
 mod load_step;
 mod loose;
 mod potential;
