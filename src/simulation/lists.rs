@@ -2,7 +2,7 @@
 //! lists made anew, with their pattern and the membranes' chains, wherever the grains moved
 //! past most of their reach.
 
-use super::{friends_around, LoadStep, Simulation, REACH_REBUILD};
+use super::{LoadStep, Simulation, REACH_REBUILD};
 use crate::contact::{kinematics, Configuration, Contact};
 use crate::solver::stats::secs;
 use crate::NumericError;
@@ -81,7 +81,6 @@ impl Simulation {
     /// the membranes' chains where the grains are, and every new pair engaged.
     pub(super) fn renew_lists(&mut self, step: &LoadStep, u: &[f64]) -> Result<(), NumericError> {
         self.equations(step).configure(u);
-        let start = Instant::now();
         let mut grains = self.state.grains.clone();
         grains.position.clone_from(&self.q.position);
         let mut walls = self.state.walls.clone();
@@ -98,14 +97,7 @@ impl Simulation {
             .filter(|c| c.bonded || c.overlap > 0.0)
             .map(|c| c.pair)
             .collect();
-        let friends = friends_around(&grains, &walls, self.config.skin * self.r_mean, &carrying);
-        self.state.friends_reference.clone_from(&friends.reference);
-        self.state
-            .friends_wall_reference
-            .clone_from(&friends.wall_reference);
-        self.friends = friends;
-        self.stats.counters.friends_rebuilds += 1;
-        self.stats.timers.detection += secs(start);
+        self.make_friends(&grains, &walls, &carrying);
         self.engage_pairs();
         self.install_pattern()?;
         self.refresh_chains(true)?;

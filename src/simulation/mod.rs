@@ -456,13 +456,16 @@ impl Simulation {
     /// Friends lists around the given positions, and the pattern and symbolic factorisation
     /// that go with them.
     fn rebuild_friends(&mut self, grains: &GrainSet, walls: &WallSet) -> Result<(), NumericError> {
+        let kept = pairs_of(&self.state.contacts);
+        self.make_friends(grains, walls, &kept);
+        self.install_pattern()
+    }
+
+    /// The friends lists made anew around the given positions, holding the pairs `kept`
+    /// whatever their distance, with the positions they were made at (for a resumed run).
+    fn make_friends(&mut self, grains: &GrainSet, walls: &WallSet, kept: &[Pair]) {
         let start = Instant::now();
-        let friends = friends_around(
-            grains,
-            walls,
-            self.config.skin * self.r_mean,
-            &pairs_of(&self.state.contacts),
-        );
+        let friends = friends_around(grains, walls, self.config.skin * self.r_mean, kept);
         self.state.friends_reference.clone_from(&friends.reference);
         self.state
             .friends_wall_reference
@@ -470,7 +473,6 @@ impl Simulation {
         self.friends = friends;
         self.stats.counters.friends_rebuilds += 1;
         self.stats.timers.detection += secs(start);
-        self.install_pattern()
     }
 
     /// The pattern of the friends lists and membrane links, with its value buffer and its
