@@ -45,10 +45,10 @@ fn report(path: &str, increment: Option<usize>, repeats: usize) -> grainstat::Re
     );
     println!();
     println!(
-        "| solver | unknowns | matrix entries | lambda | analysis (s) | factorisation, fastest \
-         (s) | factorisation, median (s) | solve, median (s) |"
+        "| solver | unknowns | matrix entries | factor entries | lambda | analysis (s) | \
+         factorisation, fastest (s) | factorisation, median (s) | solve, median (s) |"
     );
-    println!("|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|");
     let mut sim = Simulation::resume(&scene, state.clone(), header.depth, config.clone())?;
     let mut stats = SolverStats::default();
     let mut linear = LinearSolver::new();
@@ -83,9 +83,10 @@ fn report(path: &str, increment: Option<usize>, repeats: usize) -> grainstat::Re
         solve.push(start.elapsed().as_secs_f64());
     }
     println!(
-        "| Cholesky | {} | {} | {} | {:.3} | {:.4} | {:.4} | {:.5} |",
+        "| Cholesky | {} | {} | {} | {} | {:.3} | {:.4} | {:.4} | {:.5} |",
         pattern.diagonal.len(),
         pattern.nnz(),
+        linear.factor_entries(),
         if lambda > 0.0 {
             format!("{lambda:.0e}")
         } else {

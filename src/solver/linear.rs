@@ -403,6 +403,12 @@ impl LinearSolver {
         self.factor = storage;
     }
 
+    /// Values the factor of the analysed pattern holds (its supernodes' dense blocks, padding
+    /// included): its fill.
+    pub fn factor_entries(&self) -> usize {
+        self.cholesky.as_ref().map_or(0, |c| c.symbolic.len_val())
+    }
+
     /// Whether a pattern has been analysed.
     pub fn is_analysed(&self) -> bool {
         self.cholesky.is_some()
