@@ -2,14 +2,11 @@
 //! file.
 
 use clap::{Parser, Subcommand};
+use grainstat::output::info;
 use grainstat::output::plot::{default_dir, plot, plot_study};
-use grainstat::output::{info, ResultFile};
-use grainstat::run::{header, initial_report, run_to_end, start, RunEnd};
-use grainstat::sample::prepare::{prepare, PrepareSpec};
+use grainstat::run::{run_to_end, solver_settings, start, RunEnd, SceneInput};
 use grainstat::sample::{write_csv, write_sample};
-use grainstat::scene::{load_scene, load_solver, parse_scene, parse_solver};
-use grainstat::simulation::MaterialModel;
-use grainstat::simulation::Simulation;
+use grainstat::scene::{load_scene, load_solver, parse_solver};
 use grainstat::solver::SolverConfig;
 use grainstat::study::{compare, markdown, track, write_tables, StudyPlan, StudyRow, Track};
 use grainstat::sweep;
@@ -336,18 +333,6 @@ fn on_threads(
         .install(work)
 }
 
-/// Solver settings from a file, or the defaults (and their TOML, stored with the results).
-fn solver_settings(path: Option<&Path>) -> Result<(SolverConfig, String), Error> {
-    match path {
-        Some(p) => Ok(load_solver(p)?),
-        None => {
-            let config = SolverConfig::default();
-            let text = toml::to_string(&config).map_err(|e| Error::io("solver settings", e))?;
-            Ok((config, text))
-        }
-    }
-}
-
 fn generate(
     scene_path: &Path,
     output: &Path,
@@ -355,30 +340,8 @@ fn generate(
     solver_path: Option<&Path>,
     quiet: bool,
 ) -> Result<(), Error> {
-    let scene_file = scene_path.display().to_string();
-    let (scene, _) = load_scene(scene_path)?;
+    let input = SceneInput::load(scene_path)?;
     let (config, _) = solver_settings(solver_path)?;
-    let Some(spec) = &scene.sample else {
-        return Err(InputError::new(
-            &scene_file,
-            "the scene has no `[sample]` section to say what to prepare",
-        )
-        .at_key("sample")
-        .into());
-    };
-    let spec = PrepareSpec {
-        shape: spec.region,
-        aspect: spec.aspect(),
-        grains: spec.grains,
-        distribution: spec.distribution,
-        seed: spec.seed,
-        friction: spec.friction,
-        stress: spec.stress,
-        start_fraction: spec.start_fraction,
-        solid_fraction: spec.solid_fraction,
-        depth: scene.material.depth,
-    };
-    let material = MaterialModel::from_scene(&scene);
     let bar = if quiet {
         ProgressBar::hidden()
     } else {
@@ -389,7 +352,7 @@ fn generate(
             .expect("valid template"),
     );
     let start = std::time::Instant::now();
-    let prepared = prepare(&spec, &material, &config, &scene_file, |step, steps| {
+    let prepared = input.prepare_sample(&config, |step, steps| {
         bar.set_length(steps as u64);
         bar.set_position(step as u64);
     });
@@ -427,46 +390,11 @@ fn run(
     quiet: bool,
     pictures: bool,
 ) -> Result<(), Error> {
-    let scene_file = scene_path.display().to_string();
-    let (scene, scene_text) = load_scene(scene_path)?;
+    let input = SceneInput::load(scene_path)?;
     let (config, solver_text) = solver_settings(solver_path)?;
-    if scene.sample.is_some() {
-        return Err(InputError::new(
-            &scene_file,
-            "this scene prepares a sample: run `grainstat generate` on it, then start a test \
-             scene from the sample with `[grains] sample = \"SAMPLE.h5\"`",
-        )
-        .at_key("sample")
-        .into());
-    }
-
     let (mut sim, mut file) = match &resume {
-        Some(path) => {
-            let (file, head, state) = ResultFile::open_for_resume(path)?;
-            let stored = parse_scene(&head.scene_text, &path.display().to_string())?;
-            if stored != scene {
-                return Err(InputError::new(
-                    &scene_file,
-                    format!(
-                        "this scene differs from the one {} was made with; resume with the \
-                         same scene",
-                        path.display()
-                    ),
-                )
-                .into());
-            }
-            let sim = Simulation::resume(&scene, state, head.depth, config)?;
-            (sim, file)
-        }
-        None => {
-            let sim = start(&scene, scene_path, config)?;
-            let out = output
-                .or_else(|| scene.output.file.as_ref().map(PathBuf::from))
-                .unwrap_or_else(|| PathBuf::from(format!("results/{}.h5", scene.name)));
-            let mut file = ResultFile::create(&out, &header(&sim, &scene_text, &solver_text))?;
-            file.write_increment(&sim.state, &initial_report(&sim), &sim.stats)?;
-            (sim, file)
-        }
+        Some(path) => input.resume_run(config, path)?,
+        None => input.begin_run(config, &solver_text, output)?,
     };
 
     let total = sim.total_increments() as u64;
@@ -500,17 +428,22 @@ fn run(
             file.path().display()
         ));
     }
-    let result = run_to_end(&mut sim, Some(&mut file), scene.output.every, |sim, r| {
-        bar.set_position(r.increment as u64);
-        bar.set_message(format!(
-            "residual {:.1e}, {} contacts",
-            r.residual,
-            sim.state.contacts.len()
-        ));
-        if !quiet {
-            say(grainstat::run::log_line(sim, r));
-        }
-    });
+    let result = run_to_end(
+        &mut sim,
+        Some(&mut file),
+        input.scene.output.every,
+        |sim, r| {
+            bar.set_position(r.increment as u64);
+            bar.set_message(format!(
+                "residual {:.1e}, {} contacts",
+                r.residual,
+                sim.state.contacts.len()
+            ));
+            if !quiet {
+                say(grainstat::run::log_line(sim, r));
+            }
+        },
+    );
     bar.finish_and_clear();
     let path = file.path().to_path_buf();
     if !quiet {

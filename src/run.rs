@@ -1,35 +1,205 @@
-//! Running a simulation to the end of its load program: write the state every `every`
-//! increments (and the last), report each increment, and on failure write the last converged
-//! state before returning the error; the line each increment prints and the run's summary.
+//! Running a simulation: a scene read with where it came from; a run begun or resumed with
+//! its result file as `grainstat run` does it; the run advanced one increment at a time with
+//! its bookkeeping ([`Stepper`]: the state written every `every` increments and at the end,
+//! on failure the last converged state written before the error) or to the end
+//! ([`run_to_end`]); a sample prepared as `grainstat generate` does it; the line each
+//! increment prints and the run's summary.
 
+use crate::geometry::WallControl;
 use crate::output::hdf5_file::read_history;
 use crate::output::{Mechanism, ResultFile, RunHeader};
-use crate::scene::{build_grains, Scene};
-use crate::simulation::Simulation;
+use crate::sample::prepare::{prepare, PrepareSpec, Prepared};
+use crate::scene::{build_grains, load_scene, load_solver, parse_scene, Scene};
+use crate::simulation::{MaterialModel, Simulation};
 use crate::solver::stats::secs;
 use crate::solver::{SolverConfig, Strategy};
 use crate::state::{IncrementReport, PeakState};
-use crate::{Error, NumericError};
-use std::path::Path;
+use crate::{Error, InputError, NumericError};
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// A fresh simulation of the scene read from `scene_path`: from a sample's prepared
 /// equilibrium when the scene keeps its walls, else from its grains (files relative to the
 /// scene's folder).
 pub fn start(scene: &Scene, scene_path: &Path, config: SolverConfig) -> Result<Simulation, Error> {
-    let scene_file = scene_path.display().to_string();
     let base = scene_path.parent().unwrap_or(Path::new("."));
+    start_in(scene, base, &scene_path.display().to_string(), config)
+}
+
+/// [`start`] with the files the scene names relative to `base`, its problems reported against
+/// `scene_file`.
+fn start_in(
+    scene: &Scene,
+    base: &Path,
+    scene_file: &str,
+    config: SolverConfig,
+) -> Result<Simulation, Error> {
     Ok(match (&scene.grains.sample, &scene.grains.walls) {
         // The prepared equilibrium itself: walls kept, contacts with their history.
         (Some(sample), Some(_)) => {
             let sample = crate::sample::read_sample(base.join(sample))?;
-            Simulation::from_sample(scene, sample, config, &scene_file)?
+            Simulation::from_sample(scene, sample, config, scene_file)?
         }
         _ => {
-            let grains = build_grains(&scene.grains, base, &scene_file)?;
-            Simulation::new(scene, grains, config, &scene_file)?
+            let grains = build_grains(&scene.grains, base, scene_file)?;
+            Simulation::new(scene, grains, config, scene_file)?
         }
     })
+}
+
+/// A scene with where it came from: the text it was read from (stored with the results), the
+/// name its problems are reported against, and the folder the files it names are relative to.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SceneInput {
+    /// The scene, checked.
+    pub scene: Scene,
+    /// Its TOML text.
+    pub text: String,
+    /// The file its problems are reported against.
+    pub file: String,
+    /// The folder the files it names (samples, grain CSV) are relative to.
+    pub base: PathBuf,
+}
+
+impl SceneInput {
+    /// The scene file at `path`; the files it names are relative to its folder.
+    pub fn load(path: &Path) -> Result<SceneInput, InputError> {
+        let (scene, text) = load_scene(path)?;
+        Ok(SceneInput {
+            scene,
+            text,
+            file: path.display().to_string(),
+            base: path.parent().unwrap_or(Path::new(".")).to_path_buf(),
+        })
+    }
+
+    /// A scene given as TOML text, its problems reported against `file`, the files it names
+    /// relative to `base`.
+    pub fn parse(text: &str, file: &str, base: &Path) -> Result<SceneInput, InputError> {
+        Ok(SceneInput {
+            scene: parse_scene(text, file)?,
+            text: text.to_string(),
+            file: file.to_string(),
+            base: base.to_path_buf(),
+        })
+    }
+
+    /// A fresh simulation of the scene's load program (see [`start`]).
+    pub fn start(&self, config: SolverConfig) -> Result<Simulation, Error> {
+        self.require_load_program()?;
+        start_in(&self.scene, &self.base, &self.file, config)
+    }
+
+    /// A new run as `grainstat run` begins one: the simulation, and its result file at
+    /// `output` (default: the scene's `output.file`, else `results/NAME.h5`) with the state
+    /// before loading written as increment 0.
+    pub fn begin_run(
+        &self,
+        config: SolverConfig,
+        solver_text: &str,
+        output: Option<PathBuf>,
+    ) -> Result<(Simulation, ResultFile), Error> {
+        let sim = self.start(config)?;
+        let out = output
+            .or_else(|| self.scene.output.file.as_ref().map(PathBuf::from))
+            .unwrap_or_else(|| PathBuf::from(format!("results/{}.h5", self.scene.name)));
+        let mut file = ResultFile::create(&out, &header(&sim, &self.text, solver_text))?;
+        file.write_increment(&sim.state, &initial_report(&sim), &sim.stats)?;
+        Ok((sim, file))
+    }
+
+    /// The run in the result file `path` taken up at its last complete increment, as
+    /// `grainstat run --resume` does: the scene must be the one the file was made with.
+    pub fn resume_run(
+        &self,
+        config: SolverConfig,
+        path: &Path,
+    ) -> Result<(Simulation, ResultFile), Error> {
+        self.require_load_program()?;
+        let (sim, file, _) = resume_run(Some(self), config, path)?;
+        Ok((sim, file))
+    }
+
+    /// A sample prepared as the scene's `[sample]` section says (`grainstat generate`);
+    /// `progress` sees each growth step and the number of steps.
+    pub fn prepare_sample(
+        &self,
+        config: &SolverConfig,
+        progress: impl FnMut(usize, usize),
+    ) -> Result<Prepared, Error> {
+        let Some(spec) = &self.scene.sample else {
+            return Err(InputError::new(
+                &self.file,
+                "the scene has no `[sample]` section to say what to prepare",
+            )
+            .at_key("sample")
+            .into());
+        };
+        let spec = PrepareSpec {
+            shape: spec.region,
+            aspect: spec.aspect(),
+            grains: spec.grains,
+            distribution: spec.distribution,
+            seed: spec.seed,
+            friction: spec.friction,
+            stress: spec.stress,
+            start_fraction: spec.start_fraction,
+            solid_fraction: spec.solid_fraction,
+            depth: self.scene.material.depth,
+        };
+        let material = MaterialModel::from_scene(&self.scene);
+        prepare(&spec, &material, config, &self.file, progress)
+    }
+
+    /// A scene that prepares a sample has no load program to run.
+    fn require_load_program(&self) -> Result<(), InputError> {
+        match self.scene.sample {
+            Some(_) => Err(InputError::new(
+                &self.file,
+                "this scene prepares a sample: run `grainstat generate` on it, then start a \
+                 test scene from the sample with `[grains] sample = \"SAMPLE.h5\"`",
+            )
+            .at_key("sample")),
+            None => Ok(()),
+        }
+    }
+}
+
+/// The run in the result file `path` taken up at its last complete increment, with the scene
+/// `scene`, which must be the one the file was made with, or (`None`) with the scene stored
+/// in the file; and that scene.
+pub fn resume_run(
+    scene: Option<&SceneInput>,
+    config: SolverConfig,
+    path: &Path,
+) -> Result<(Simulation, ResultFile, Scene), Error> {
+    let (file, head, state) = ResultFile::open_for_resume(path)?;
+    let stored = parse_scene(&head.scene_text, &path.display().to_string())?;
+    if let Some(input) = scene.filter(|input| input.scene != stored) {
+        return Err(InputError::new(
+            &input.file,
+            format!(
+                "this scene differs from the one {} was made with; resume with the same scene",
+                path.display()
+            ),
+        )
+        .into());
+    }
+    let sim = Simulation::resume(&stored, state, head.depth, config)?;
+    Ok((sim, file, stored))
+}
+
+/// Solver settings from a file, or the defaults; with the TOML they were read from (the
+/// defaults written out), which is stored with the results.
+pub fn solver_settings(path: Option<&Path>) -> Result<(SolverConfig, String), Error> {
+    match path {
+        Some(p) => Ok(load_solver(p)?),
+        None => {
+            let config = SolverConfig::default();
+            let text = toml::to_string(&config).map_err(|e| Error::io("solver settings", e))?;
+            Ok((config, text))
+        }
+    }
 }
 
 /// The static data of a simulation's result file.
@@ -151,104 +321,225 @@ impl std::fmt::Display for Failure {
 }
 
 /// Run the load program to its end, or, in a stage loaded until failure, to the increment
-/// that finds no equilibrium or shows its `failure_drop` (the peaks counted over the stage's
-/// increments in `file` too, so that a resumed run remembers them). The state is written to
-/// `file` after every `every`-th increment, at the end of every stage and after the last
-/// increment; the numeric factorisation is refreshed at the same points (file or not), so a
-/// run resumed from a written increment repeats the same arithmetic. `on_increment` sees
-/// every converged increment. A failed increment writes the last converged increment if it
-/// is not on file yet; it is an error unless its stage is loaded until failure.
+/// that finds no equilibrium or shows its `failure_drop`: [`Stepper::step`] until the run
+/// ends. `on_increment` sees every converged increment, after it is written.
 pub fn run_to_end(
     sim: &mut Simulation,
     mut file: Option<&mut ResultFile>,
     every: usize,
     mut on_increment: impl FnMut(&Simulation, &IncrementReport),
 ) -> Result<RunEnd, Error> {
-    // The report of the last increment not on file yet.
-    let mut unwritten: Option<IncrementReport> = None;
-    let mut peaks = match file.as_deref() {
-        Some(f) => PeakForces::written(f.path(), sim.state.stage)?,
-        None => PeakForces::default(),
-    };
-    // The peak of the increments not written since the last row: the next row carries it.
-    let mut pending: Option<PeakState> = None;
+    let mut stepper = Stepper::new(sim, file.as_deref(), every)?;
     while !sim.is_finished() {
-        sim.drop_floor = peaks.floors(sim);
-        let mut report = match sim.run_increment() {
+        let stepped = stepper.step(sim, file.as_deref_mut())?;
+        if let Some(report) = &stepped.report {
+            on_increment(sim, report);
+        }
+        if let Some(failure) = stepped.failure {
+            return Ok(RunEnd::Failed(failure));
+        }
+    }
+    Ok(RunEnd::Finished)
+}
+
+/// What one step of a run did.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Stepped {
+    /// The increment's report, where it converged.
+    pub report: Option<IncrementReport>,
+    /// The failure the run ends with, where it ends in one.
+    pub failure: Option<Failure>,
+}
+
+/// A run advanced one increment at a time, with what it keeps between increments. The state
+/// is written to the file after every `every`-th increment, at the end of every stage and
+/// after the last increment; the numeric factorisation is refreshed at the same points (file
+/// or not), so a run resumed from a written increment repeats the same arithmetic. In a
+/// stage loaded until failure the peaks are counted over the stage's increments in the file
+/// too, so that a resumed run remembers them. A failed increment writes the last converged
+/// increment if it is not on file yet; it is an error unless its stage is loaded until
+/// failure.
+#[derive(Debug)]
+pub struct Stepper {
+    every: usize,
+    /// The report of the last increment not on file yet.
+    unwritten: Option<IncrementReport>,
+    peaks: PeakForces,
+    /// The peak of the increments not written since the last row: the next row carries it.
+    pending: Option<PeakState>,
+    /// The walls given a stress for the next increment ([`Stepper::set_wall_stress`]), with
+    /// their stage: held there after it.
+    stress_set: Vec<(usize, usize)>,
+}
+
+impl Stepper {
+    /// The stepper of a run starting where `sim` stands, written to `file`.
+    pub fn new(
+        sim: &Simulation,
+        file: Option<&ResultFile>,
+        every: usize,
+    ) -> Result<Stepper, Error> {
+        Ok(Stepper {
+            every: every.max(1),
+            unwritten: None,
+            peaks: match file {
+                Some(f) => PeakForces::written(f.path(), sim.state.stage)?,
+                None => PeakForces::default(),
+            },
+            pending: None,
+            stress_set: Vec::new(),
+        })
+    }
+
+    /// Run the next increment and keep its books (see [`Stepper`]). The simulation must not
+    /// be finished.
+    pub fn step(
+        &mut self,
+        sim: &mut Simulation,
+        mut file: Option<&mut ResultFile>,
+    ) -> Result<Stepped, Error> {
+        sim.drop_floor = self.peaks.floors(sim);
+        let result = sim.run_increment();
+        // A stress set for this increment is held for the rest of its stage.
+        for (stage, w) in self.stress_set.drain(..) {
+            sim.stages[stage].stress[w] = None;
+        }
+        let mut report = match result {
             Ok(report) => report,
-            Err(err) => {
-                // Keep what was computed: the last converged state, if it is not on file yet
-                // (the summary goes with it), else the summary of the work spent.
-                if let Some(f) = file.as_deref_mut() {
-                    // Its state is the one the failing increment started from, which the
-                    // halves of it that converged have moved the simulation's past.
-                    match (unwritten.take(), &sim.failed_from) {
-                        (Some(last), Some(state)) => f.write_increment(state, &last, &sim.stats)?,
-                        _ => f.write_summary(&sim.stats)?,
-                    }
-                    // No equilibrium near: the mechanism, as the descent carried it. At a
-                    // breakout that ends the test, the cluster is among the breakouts, and
-                    // nothing is carried on as a whole.
-                    let carried_on = match &err {
-                        NumericError::NoEquilibrium { grains, .. } => Some(grains.clone()),
-                        NumericError::BrokeOut { .. } => Some(Vec::new()),
-                        _ => None,
-                    };
-                    if let Some(grains) = carried_on {
-                        let state = &sim.state;
-                        f.write_mechanism(&Mechanism {
-                            increment: state.increment + 1,
-                            description: err.to_string(),
-                            grains,
-                            position: state.grains.position.clone(),
-                            displacement: sim.descent(),
-                            membrane_pressure: state.membranes.iter().map(|m| m.pressure).collect(),
-                            wall_stress: state.walls.walls.iter().map(|w| w.stress).collect(),
-                            peak: sim.peak_within.clone(),
-                            breakouts: state.breakouts.clone(),
-                        })?;
-                    }
-                }
-                let stage = &sim.stages[sim.state.stage];
-                // The minimisation names the failure (grains carried on while the potential
-                // falls); where it only stops short of the tolerance, the solver gave up.
-                let no_equilibrium = matches!(err, NumericError::NoEquilibrium { .. });
-                let cause = match err {
-                    NumericError::BrokeOut { .. } => FailureCause::Breakout(err),
-                    _ if stage.until_failure && no_equilibrium => FailureCause::NoEquilibrium(err),
-                    _ => return Err(err.into()),
-                };
-                let at = (sim.state.increment + 1, sim.state.stage);
-                return Ok(RunEnd::Failed(failure(sim, cause, at)));
-            }
+            Err(err) => return self.failed(sim, file, err),
         };
-        if let Some(before) = pending.take() {
+        if let Some(before) = self.pending.take() {
             report.keep_peak(before);
         }
-        on_increment(sim, &report);
         // Every stage's end is written too: a test's estimate starts from it.
         let stage_end = sim.state.stage_increment == 0;
-        if report.increment % every.max(1) == 0 || stage_end || sim.is_finished() {
+        if report.increment % self.every == 0 || stage_end || sim.is_finished() {
             sim.refresh_workspace()?;
             if let Some(f) = file.as_deref_mut() {
                 let start = Instant::now();
                 f.write_increment(&sim.state, &report, &sim.stats)?;
                 sim.stats.timers.output += secs(start);
             }
-            unwritten = None;
+            self.unwritten = None;
         } else {
-            pending = Some(report.peak_or_end(&sim.state.walls));
-            unwritten = Some(report.clone());
+            self.pending = Some(report.peak_or_end(&sim.state.walls));
+            self.unwritten = Some(report.clone());
         }
-        if let Some(cause) = peaks.drop(sim, &report) {
-            if let (Some(f), Some(last)) = (file.as_deref_mut(), unwritten.take()) {
+        let mut failure = None;
+        if let Some(cause) = self.peaks.drop(sim, &report) {
+            if let (Some(f), Some(last)) = (file, self.unwritten.take()) {
                 f.write_increment(&sim.state, &last, &sim.stats)?;
             }
-            let at = (report.increment, report.stage);
-            return Ok(RunEnd::Failed(failure(sim, cause, at)));
+            failure = Some(self::failure(sim, cause, (report.increment, report.stage)));
         }
+        Ok(Stepped {
+            report: Some(report),
+            failure,
+        })
     }
-    Ok(RunEnd::Finished)
+
+    /// After an increment that failed with `err`: keep what was computed, then the failure
+    /// the run ends with, or the error.
+    fn failed(
+        &mut self,
+        sim: &mut Simulation,
+        file: Option<&mut ResultFile>,
+        err: NumericError,
+    ) -> Result<Stepped, Error> {
+        // The last converged state, if it is not on file yet (the summary goes with it), else
+        // the summary of the work spent.
+        if let Some(f) = file {
+            // Its state is the one the failing increment started from, which the halves of
+            // it that converged have moved the simulation's past.
+            match (self.unwritten.take(), &sim.failed_from) {
+                (Some(last), Some(state)) => f.write_increment(state, &last, &sim.stats)?,
+                _ => f.write_summary(&sim.stats)?,
+            }
+            // No equilibrium near: the mechanism, as the descent carried it. At a breakout
+            // that ends the test, the cluster is among the breakouts, and nothing is carried
+            // on as a whole.
+            let carried_on = match &err {
+                NumericError::NoEquilibrium { grains, .. } => Some(grains.clone()),
+                NumericError::BrokeOut { .. } => Some(Vec::new()),
+                _ => None,
+            };
+            if let Some(grains) = carried_on {
+                let state = &sim.state;
+                f.write_mechanism(&Mechanism {
+                    increment: state.increment + 1,
+                    description: err.to_string(),
+                    grains,
+                    position: state.grains.position.clone(),
+                    displacement: sim.descent(),
+                    membrane_pressure: state.membranes.iter().map(|m| m.pressure).collect(),
+                    wall_stress: state.walls.walls.iter().map(|w| w.stress).collect(),
+                    peak: sim.peak_within.clone(),
+                    breakouts: state.breakouts.clone(),
+                })?;
+            }
+        }
+        let stage = &sim.stages[sim.state.stage];
+        // The minimisation names the failure (grains carried on while the potential falls);
+        // where it only stops short of the tolerance, the solver gave up.
+        let no_equilibrium = matches!(err, NumericError::NoEquilibrium { .. });
+        let cause = match err {
+            NumericError::BrokeOut { .. } => FailureCause::Breakout(err),
+            _ if stage.until_failure && no_equilibrium => FailureCause::NoEquilibrium(err),
+            _ => return Err(err.into()),
+        };
+        let at = (sim.state.increment + 1, sim.state.stage);
+        Ok(Stepped {
+            report: None,
+            failure: Some(failure(sim, cause, at)),
+        })
+    }
+
+    /// Load wall `wall` to `stress` (Pa) in the next increment, in place of its stage's
+    /// target, and hold it there for the rest of the stage: a load path computed between
+    /// increments. The wall must be under stress control in the next increment, from before
+    /// it (a wall that turns to stress control as its stage starts takes the grains' stress
+    /// then). The next increment's stress is the stage's target reached in equal steps over
+    /// its increments left, so the target is set to where those steps lead; the stress then
+    /// reached is `stress` to round-off.
+    pub fn set_wall_stress(
+        &mut self,
+        sim: &mut Simulation,
+        wall: &str,
+        stress: f64,
+    ) -> Result<(), InputError> {
+        let bad = |message: String| InputError::new("set_wall_stress", message);
+        if sim.is_finished() {
+            return Err(bad(
+                "the load program is done: no increment is left to load".into(),
+            ));
+        }
+        if !stress.is_finite() {
+            return Err(bad(format!(
+                "the stress must be a finite number, not {stress}"
+            )));
+        }
+        let walls = &sim.state.walls.walls;
+        let Some(w) = walls.iter().position(|x| x.name == wall) else {
+            let names: Vec<&str> = walls.iter().map(|x| x.name.as_str()).collect();
+            return Err(bad(format!(
+                "no wall is named `{wall}`; the walls are: {}",
+                names.join(", ")
+            )));
+        };
+        let stage = &mut sim.stages[sim.state.stage];
+        let control = stage.control.get(w).copied().unwrap_or(walls[w].control);
+        if walls[w].control != WallControl::Stress || control != WallControl::Stress {
+            return Err(bad(format!(
+                "wall `{wall}` is not under stress control in stage '{}' (from its start)",
+                stage.name
+            )));
+        }
+        let from = walls[w].stress;
+        let left = (stage.increments - sim.state.stage_increment) as f64;
+        stage.stress[w] = Some(from + (stress - from) * left);
+        self.stress_set.push((sim.state.stage, w));
+        Ok(())
+    }
 }
 
 /// The largest force on each wall in the current stage, for [`FailureCause::LoadDrop`].
@@ -410,7 +701,7 @@ fn watched_drop(sim: &Simulation, stage: usize) -> Option<f64> {
 
 /// Whether stage `stage` pushes wall `w`: displacement-controlled and moved.
 fn pushed(sim: &Simulation, stage: usize, w: usize) -> bool {
-    sim.state.walls.walls[w].control == crate::geometry::WallControl::Displacement
+    sim.state.walls.walls[w].control == WallControl::Displacement
         && sim.stages[stage].normal_move[w] != 0.0
 }
 
@@ -422,7 +713,7 @@ fn failure(sim: &Simulation, cause: FailureCause, (increment, stage): (usize, us
         .walls
         .walls
         .iter()
-        .filter(|w| w.control == crate::geometry::WallControl::Stress)
+        .filter(|w| w.control == WallControl::Stress)
         .map(|w| (w.name.clone(), w.stress));
     Failure {
         increment,

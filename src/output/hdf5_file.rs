@@ -640,7 +640,8 @@ pub(crate) fn increment_groups(inc: &Group) -> R<Vec<(usize, String, bool)>> {
 // ---------------------------------------------------------------------------------------
 // Small helpers.
 
-pub(crate) fn control_name(c: WallControl) -> &'static str {
+/// A wall's control as stored: `"displacement"` or `"stress"`.
+pub fn control_name(c: WallControl) -> &'static str {
     match c {
         WallControl::Displacement => "displacement",
         WallControl::Stress => "stress",
@@ -648,7 +649,7 @@ pub(crate) fn control_name(c: WallControl) -> &'static str {
 }
 
 /// Pair side `a` as stored: a grain index, or `-(w + 1)` for wall `w`.
-pub(crate) fn side_code(a: Side) -> i64 {
+pub fn side_code(a: Side) -> i64 {
     match a {
         Side::Grain(i) => i as i64,
         Side::Wall(w) => -(w as i64) - 1,
