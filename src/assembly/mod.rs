@@ -301,17 +301,24 @@ pub struct Pattern {
     /// Column structure for faer.
     pub symbolic: SymbolicSparseColMat<usize>,
     /// For pair `p`, `slots[start[p]..start[p+1]]` holds the value index of each
-    /// (row, column) of its reduced block, column by column as the values lie.
-    slots: Vec<usize>,
+    /// (row, column) of its reduced block, column by column as the values lie. In 32 bits,
+    /// as [`Pattern::row_order`]: they are most of the pattern's memory.
+    slots: Vec<u32>,
     start: Vec<usize>,
     /// Value index of each diagonal entry.
     pub diagonal: Vec<usize>,
     /// Value index of each entry in the order by rows (`krylov::row_order`).
-    pub row_order: Vec<usize>,
+    pub row_order: Vec<u32>,
     /// Value index of the (wall, span wall) entries of follower loads: `(row, col, slot)`.
     pub couplings: Vec<(usize, usize, usize)>,
     /// The grain links outside the friends lists it was built with (membrane chains).
     pub chain_links: Vec<(usize, usize)>,
+}
+
+/// A value index in 32 bits: a pattern holds about 60 entries a grain, so 32 bits hold the
+/// patterns of some 70 million grains, far beyond what the factor leaves room for.
+pub fn value_index(index: usize) -> u32 {
+    u32::try_from(index).expect("a pattern of fewer than 2^32 entries")
 }
 
 impl Pattern {
@@ -374,18 +381,20 @@ impl Pattern {
                     .binary_search(&row)
                     .expect("entry in pattern")
         };
+        let slot_32 = |row: usize, col: usize| value_index(slot(row, col));
         let mut start = Vec::with_capacity(maps.len() + 1);
         start.push(0);
         for m in &maps {
             start.push(start[start.len() - 1] + m.len * m.len);
         }
-        let slots = parallel::flat_map(maps.len(), |p| {
+        let mut slots = parallel::flat_map(maps.len(), |p| {
             let m = &maps[p];
             let dofs = &m.dofs[..m.len];
             dofs.iter()
                 .flat_map(move |&c| dofs.iter().map(move |&r| (r, c)))
-                .map(|(r, c)| slot(r, c))
+                .map(|(r, c)| slot_32(r, c))
         });
+        slots.shrink_to_fit();
         let diagonal = (0..n).map(|j| slot(j, j)).collect();
         let couplings = wanted_couplings
             .into_iter()
@@ -429,7 +438,7 @@ impl Pattern {
     }
 
     /// Value indices of pair `p`'s reduced block, column by column.
-    pub fn pair_slots(&self, p: usize) -> &[usize] {
+    pub fn pair_slots(&self, p: usize) -> &[u32] {
         &self.slots[self.start[p]..self.start[p + 1]]
     }
 
@@ -504,7 +513,7 @@ impl Pattern {
                 for (b, slots) in slots.chunks_exact(map.len).enumerate() {
                     if range.contains(&dofs[b]) {
                         for (row, &slot) in local.stiffness.iter().zip(slots) {
-                            values[slot - offset] += row[b];
+                            values[slot as usize - offset] += row[b];
                         }
                     }
                 }

@@ -2,12 +2,13 @@
 //! semi-smooth steps solve with the unsymmetric consistent tangent, preconditioned by the
 //! last Cholesky of the symmetric Hessian made in the same minimisation.
 
+use crate::assembly::value_index;
 use faer::sparse::SymbolicSparseColMat;
 
 /// For each entry of a symmetric pattern (both triangles stored, each column's rows sorted)
 /// in the order by rows, its index among the values by columns: the layout
 /// [`multiply_by_rows`] reads a matrix of that pattern in, made once per pattern.
-pub fn row_order(pattern: &SymbolicSparseColMat<usize>) -> Vec<usize> {
+pub fn row_order(pattern: &SymbolicSparseColMat<usize>) -> Vec<u32> {
     let (col_ptr, row_idx) = (pattern.col_ptr(), pattern.row_idx());
     let mut next = col_ptr[..pattern.ncols()].to_vec();
     let mut order = vec![0; row_idx.len()];
@@ -15,7 +16,7 @@ pub fn row_order(pattern: &SymbolicSparseColMat<usize>) -> Vec<usize> {
         for p in col_ptr[j]..col_ptr[j + 1] {
             let i = row_idx[p];
             debug_assert_eq!(row_idx[next[i]], j, "a symmetric pattern");
-            order[next[i]] = p;
+            order[next[i]] = value_index(p);
             next[i] += 1;
         }
     }
@@ -212,7 +213,10 @@ mod tests {
                 }
             }
         }
-        let by_rows: Vec<f64> = row_order(&pattern).iter().map(|&p| a.val()[p]).collect();
+        let by_rows: Vec<f64> = row_order(&pattern)
+            .iter()
+            .map(|&p| a.val()[p as usize])
+            .collect();
         let mut y = vec![f64::NAN; n];
         multiply_by_rows(&pattern, &by_rows, &x, &mut y);
         for (p, q) in y.iter().zip(&by_columns) {
@@ -225,7 +229,10 @@ mod tests {
         let n = 200;
         let a = matrix(n);
         let pattern = a.symbolic().to_owned().unwrap();
-        let by_rows: Vec<f64> = row_order(&pattern).iter().map(|&p| a.val()[p]).collect();
+        let by_rows: Vec<f64> = row_order(&pattern)
+            .iter()
+            .map(|&p| a.val()[p as usize])
+            .collect();
         let b: Vec<f64> = (0..n).map(|i| (i as f64).sin()).collect();
         let diagonal: Vec<f64> = (0..n).map(|i| 4.0 + (i % 3) as f64).collect();
         let mut x = vec![0.0; n];

@@ -18,6 +18,7 @@
 //! factor's values in all.
 
 use super::stats::{secs, SolverStats};
+use crate::assembly::value_index;
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::cholesky::ldlt::factor::LdltRegularization;
 use faer::linalg::cholesky::llt::factor::LltRegularization;
@@ -60,8 +61,8 @@ struct Cholesky {
     symbolic: SymbolicCholesky<usize>,
     /// `P A P^T`: its lower triangle, which the numeric factorisation reads.
     ordered: SymbolicSparseColMat<usize>,
-    /// The value of `A` each entry of `ordered` takes.
-    source: Vec<usize>,
+    /// The value of `A` each entry of `ordered` takes (in 32 bits, as the pattern's slots).
+    source: Vec<u32>,
     /// Where each pivot's diagonal entry lies in `ordered`.
     diagonal: Vec<usize>,
     /// The values of `ordered`.
@@ -112,7 +113,7 @@ impl Cholesky {
     /// `P (A + diag(shift)) P^T` into `values` (no shift when `shift` is empty).
     fn gather(&mut self, a: &[f64], shift: &[f64]) {
         for (value, &k) in self.values.iter_mut().zip(&self.source) {
-            *value = a[k];
+            *value = a[k as usize];
         }
         if !shift.is_empty() {
             for (&slot, &dof) in self.diagonal.iter().zip(order(&self.symbolic).0) {
@@ -257,7 +258,7 @@ fn order(symbolic: &SymbolicCholesky<usize>) -> (&[usize], &[usize]) {
 fn permute(
     pattern: &SymbolicSparseColMat<usize>,
     perm: PermRef<'_, usize>,
-) -> (SymbolicSparseColMat<usize>, Vec<usize>) {
+) -> (SymbolicSparseColMat<usize>, Vec<u32>) {
     let (n, nnz) = (pattern.nrows(), pattern.row_idx().len());
     // Each entry's index as its value (exact: far below 2^53), carried along by faer.
     let index: Vec<f64> = (0..nnz).map(|k| k as f64).collect();
@@ -275,7 +276,10 @@ fn permute(
     );
     let len = col_ptr[n];
     row_idx.truncate(len);
-    let source = source[..len].iter().map(|&k| k as usize).collect();
+    let source = source[..len]
+        .iter()
+        .map(|&k| value_index(k as usize))
+        .collect();
     let ordered = SymbolicSparseColMat::new_unsorted_checked(n, n, col_ptr, None, row_idx);
     (ordered, source)
 }

@@ -33,7 +33,7 @@ pub struct SystemMatrix<'a> {
     pub diagonal: &'a [usize],
     /// The value index of each entry in the order by rows ([`krylov::row_order`]), in which
     /// GMRES multiplies by the consistent tangent.
-    pub row_order: &'a [usize],
+    pub row_order: &'a [u32],
 }
 
 /// An incremental potential `Pi(u)` with its gradient and projected Hessian in a fixed
@@ -413,7 +413,7 @@ pub fn minimise(
                 continue;
             }
             by_rows.clear();
-            by_rows.extend(row_order.iter().map(|&p| consistent[p]));
+            by_rows.extend(row_order.iter().map(|&p| consistent[p as usize]));
             // The consistent tangent is regularised as the Hessian is (`regularise` with the
             // present Levenberg-Marquardt factor: its share on every row, and the floor of rows
             // with no stiffness). A grain whose contacts all slide has no stiffness along its
