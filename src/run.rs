@@ -367,9 +367,6 @@ pub struct Stepper {
     peaks: PeakForces,
     /// The peak of the increments not written since the last row: the next row carries it.
     pending: Option<PeakState>,
-    /// The walls given a stress for the next increment ([`Stepper::set_wall_stress`]), with
-    /// their stage: held there after it.
-    stress_set: Vec<(usize, usize)>,
 }
 
 impl Stepper {
@@ -387,7 +384,6 @@ impl Stepper {
                 None => PeakForces::default(),
             },
             pending: None,
-            stress_set: Vec::new(),
         })
     }
 
@@ -399,12 +395,7 @@ impl Stepper {
         mut file: Option<&mut ResultFile>,
     ) -> Result<Stepped, Error> {
         sim.drop_floor = self.peaks.floors(sim);
-        let result = sim.run_increment();
-        // A stress set for this increment is held for the rest of its stage.
-        for (stage, w) in self.stress_set.drain(..) {
-            sim.stages[stage].stress[w] = None;
-        }
-        let mut report = match result {
+        let mut report = match sim.run_increment() {
             Ok(report) => report,
             Err(err) => return self.failed(sim, file, err),
         };
@@ -492,53 +483,6 @@ impl Stepper {
             report: None,
             failure: Some(failure(sim, cause, at)),
         })
-    }
-
-    /// Load wall `wall` to `stress` (Pa) in the next increment, in place of its stage's
-    /// target, and hold it there for the rest of the stage: a load path computed between
-    /// increments. The wall must be under stress control in the next increment, from before
-    /// it (a wall that turns to stress control as its stage starts takes the grains' stress
-    /// then). The next increment's stress is the stage's target reached in equal steps over
-    /// its increments left, so the target is set to where those steps lead; the stress then
-    /// reached is `stress` to round-off.
-    pub fn set_wall_stress(
-        &mut self,
-        sim: &mut Simulation,
-        wall: &str,
-        stress: f64,
-    ) -> Result<(), InputError> {
-        let bad = |message: String| InputError::new("set_wall_stress", message);
-        if sim.is_finished() {
-            return Err(bad(
-                "the load program is done: no increment is left to load".into(),
-            ));
-        }
-        if !stress.is_finite() {
-            return Err(bad(format!(
-                "the stress must be a finite number, not {stress}"
-            )));
-        }
-        let walls = &sim.state.walls.walls;
-        let Some(w) = walls.iter().position(|x| x.name == wall) else {
-            let names: Vec<&str> = walls.iter().map(|x| x.name.as_str()).collect();
-            return Err(bad(format!(
-                "no wall is named `{wall}`; the walls are: {}",
-                names.join(", ")
-            )));
-        };
-        let stage = &mut sim.stages[sim.state.stage];
-        let control = stage.control.get(w).copied().unwrap_or(walls[w].control);
-        if walls[w].control != WallControl::Stress || control != WallControl::Stress {
-            return Err(bad(format!(
-                "wall `{wall}` is not under stress control in stage '{}' (from its start)",
-                stage.name
-            )));
-        }
-        let from = walls[w].stress;
-        let left = (stage.increments - sim.state.stage_increment) as f64;
-        stage.stress[w] = Some(from + (stress - from) * left);
-        self.stress_set.push((sim.state.stage, w));
-        Ok(())
     }
 }
 

@@ -228,8 +228,8 @@ impl Simulation {
     /// Python. The wall must be under stress control (`state.walls.control`) in the current
     /// stage, from its start.
     fn set_wall_stress(&mut self, wall: &str, stress: f64) -> PyResult<()> {
-        self.stepper
-            .set_wall_stress(&mut self.sim, wall, stress)
+        self.sim
+            .set_wall_stress(wall, stress)
             .map_err(crate::input_error)
     }
 

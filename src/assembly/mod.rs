@@ -381,7 +381,6 @@ impl Pattern {
                     .binary_search(&row)
                     .expect("entry in pattern")
         };
-        let slot_32 = |row: usize, col: usize| value_index(slot(row, col));
         let mut start = Vec::with_capacity(maps.len() + 1);
         start.push(0);
         for m in &maps {
@@ -392,7 +391,7 @@ impl Pattern {
             let dofs = &m.dofs[..m.len];
             dofs.iter()
                 .flat_map(move |&c| dofs.iter().map(move |&r| (r, c)))
-                .map(|(r, c)| slot_32(r, c))
+                .map(|(r, c)| value_index(slot(r, c)))
         });
         slots.shrink_to_fit();
         let diagonal = (0..n).map(|j| slot(j, j)).collect();

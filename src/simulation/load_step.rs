@@ -1,4 +1,9 @@
-//! What the load program does to the walls in one load increment, and its parts.
+//! What the load program does to the walls in one load increment, and its parts; a wall's
+//! stress set between increments.
+
+use super::Simulation;
+use crate::geometry::WallControl;
+use crate::InputError;
 
 /// What the load program does to the walls in one (sub-)increment.
 #[derive(Debug, Clone, PartialEq)]
@@ -48,6 +53,46 @@ impl LoadStep {
             pressure: self.pressure.clone(),
         };
         (first, rest)
+    }
+}
+
+impl Simulation {
+    /// Load wall `wall` to `stress` (Pa) in the next increment, in place of its stage's step,
+    /// and hold it there for the rest of the stage: a load path computed between increments.
+    /// The wall must be under stress control in the next increment, from before it (a wall
+    /// that turns to stress control as its stage starts takes the grains' stress then).
+    pub fn set_wall_stress(&mut self, wall: &str, stress: f64) -> Result<(), InputError> {
+        let bad = |message: String| InputError::new("set_wall_stress", message);
+        if self.is_finished() {
+            return Err(bad(
+                "the load program is done: no increment is left to load".into(),
+            ));
+        }
+        if !stress.is_finite() {
+            return Err(bad(format!(
+                "the stress must be a finite number, not {stress}"
+            )));
+        }
+        let walls = &self.state.walls.walls;
+        let Some(w) = walls.iter().position(|x| x.name == wall) else {
+            let names: Vec<&str> = walls.iter().map(|x| x.name.as_str()).collect();
+            return Err(bad(format!(
+                "no wall is named `{wall}`; the walls are: {}",
+                names.join(", ")
+            )));
+        };
+        let stage = &mut self.stages[self.state.stage];
+        let control = stage.control.get(w).copied().unwrap_or(walls[w].control);
+        if walls[w].control != WallControl::Stress || control != WallControl::Stress {
+            return Err(bad(format!(
+                "wall `{wall}` is not under stress control in stage '{}' (from its start)",
+                stage.name
+            )));
+        }
+        stage.stress[w] = None;
+        self.stress_next.resize(walls.len(), None);
+        self.stress_next[w] = Some(stress);
+        Ok(())
     }
 }
 

@@ -70,6 +70,9 @@ pub struct Simulation {
     /// the step's where the solver gives up on the cascade after it: the sample's brittle
     /// failure at the cascade's load.
     pub drop_floor: Vec<f64>,
+    /// The stress each wall takes in the next increment where it was set between increments
+    /// ([`Simulation::set_wall_stress`]) in place of its stage's step; empty where none was.
+    stress_next: Vec<Option<f64>>,
     law: Box<dyn ContactLaw>,
     r_mean: f64,
     dofs: DofMap,
@@ -142,6 +145,7 @@ impl Simulation {
             peak_within: None,
             failed_from: None,
             drop_floor: Vec::new(),
+            stress_next: Vec::new(),
             law,
             r_mean,
             q: Configuration::at_rest(&state.grains, &state.walls),
@@ -259,6 +263,7 @@ impl Simulation {
             ..self.energy
         };
         // Advance the load program.
+        self.stress_next.clear();
         self.state.increment += 1;
         self.state.stage_increment += 1;
         if self.state.stage_increment == self.stages[self.state.stage].increments {
@@ -356,9 +361,13 @@ impl Simulation {
                 .walls
                 .iter()
                 .zip(&stage.stress)
-                .map(|(w, target)| match target {
-                    Some(t) => w.stress + (t - w.stress) / left,
-                    None => w.stress,
+                .enumerate()
+                .map(|(i, (w, target))| {
+                    match (self.stress_next.get(i).copied().flatten(), target) {
+                        (Some(set), _) => set,
+                        (None, Some(t)) => w.stress + (t - w.stress) / left,
+                        (None, None) => w.stress,
+                    }
                 })
                 .collect(),
             pressure: self
