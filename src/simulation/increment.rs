@@ -553,6 +553,7 @@ impl Simulation {
             let mut values = std::mem::take(&mut self.values);
             let mut stats = self.stats;
             let mut linear = std::mem::take(&mut self.linear);
+            let mut work = std::mem::take(&mut self.minimise_work);
             let mut eq = self.equations(step);
             eq.chain_changes = chain_changes;
             eq.chains_held = chain_changes >= CHAIN_CHANGES;
@@ -567,12 +568,14 @@ impl Simulation {
                 &mut linear,
                 u,
                 &settings,
+                &mut work,
                 &mut stats,
             );
             let timers = eq.timers;
             chain_changes = eq.chain_changes;
             self.take_back(stats, timers, values);
             self.linear = linear;
+            self.minimise_work = work;
             let outcome = result?;
             settings.lambda_start = outcome.at_reach.then_some(outcome.lambda);
             report.newton_iterations += outcome.iterations;

@@ -29,7 +29,7 @@ use crate::assembly::{DofMap, Pattern};
 use crate::contact::{Configuration, ContactLaw, ContactSet, Kinematics};
 use crate::geometry::{chains, Chain, FriendSet, GrainSet, Pair, Side, WallControl, WallSet};
 use crate::measure::{measure, Measurements, MembraneBoundary, Region};
-use crate::solver::minimise::Potential;
+use crate::solver::minimise::{MinimiseWork, Potential};
 use crate::solver::stats::{secs, StageTimers};
 use crate::solver::{LinearSolver, SolverConfig, SolverStats, Strategy};
 use crate::state::{IncrementReport, PeakState, State};
@@ -98,6 +98,8 @@ pub struct Simulation {
     /// The stability indicator's system with every wall free, kept while the pattern it was
     /// made from is the current one and it couples the membranes' chains.
     freed: Option<stability::FreedSystem>,
+    /// The minimisation's work vectors, kept from one minimisation to the next.
+    minimise_work: MinimiseWork,
     /// The energy the increment being solved dissipated by sliding and released by breaking
     /// bonds, so far.
     energy: EnergyBalance,
@@ -157,6 +159,7 @@ impl Simulation {
             loose: Vec::new(),
             reopened: Vec::new(),
             freed: None,
+            minimise_work: MinimiseWork::default(),
             energy: EnergyBalance::default(),
             values: vec![0.0; pattern.nnz()],
             pattern,
@@ -490,6 +493,9 @@ impl Simulation {
     /// chain whose new links are friends pairs already, most often leave the entries as they
     /// were.
     fn install_pattern(&mut self) -> Result<(), NumericError> {
+        // The old pattern's values go first, so that the two patterns' are not held at once.
+        self.values = Vec::new();
+        self.minimise_work.release_pattern_sized();
         let links: Vec<(usize, usize)> = self.chains.iter().flat_map(Chain::links).collect();
         let pattern = Pattern::build(&self.friends, &self.dofs, &self.state.walls, &links);
         let (old, new) = (&self.pattern.symbolic, &pattern.symbolic);

@@ -55,6 +55,10 @@ impl Simulation {
                 && f.pattern.couples(&f.dofs, &self.chains)
         });
         if !current {
+            // The freed system is made anew where the pattern was: the vectors of the
+            // pattern's size go first, so that the two systems' are not held at once.
+            self.freed = None;
+            self.minimise_work.release_pattern_sized();
             let mut walls = self.state.walls.clone();
             for wall in &mut walls.walls {
                 wall.control = WallControl::Stress;
@@ -117,7 +121,10 @@ impl Simulation {
         pattern: &Pattern,
         linear: &mut LinearSolver,
     ) -> Option<usize> {
-        let mut values = vec![0.0; pattern.nnz()];
+        // The consistent tangent's storage, free between minimisations, holds the tangent.
+        let mut values = std::mem::take(&mut self.minimise_work.consistent);
+        values.clear();
+        values.resize(pattern.nnz(), 0.0);
         let mut residual = vec![0.0; dofs.len];
         let mut eq = self.equations(step);
         eq.dofs = dofs;
@@ -128,12 +135,15 @@ impl Simulation {
         let unit: Vec<f64> = (0..dofs.len).map(|dof| eq.unit_stiffness(dof)).collect();
         let timers = eq.timers;
         self.add_timers(timers);
-        evaluated.ok()?;
-        scale_tangent(pattern, &mut values, &unit);
-        let matrix = SparseColMatRef::new(pattern.symbolic.as_ref(), &values);
-        linear
-            .negative_pivots(matrix, PIVOT_THRESHOLD, &mut self.stats)
-            .ok()
+        let count = evaluated.ok().and_then(|_| {
+            scale_tangent(pattern, &mut values, &unit);
+            let matrix = SparseColMatRef::new(pattern.symbolic.as_ref(), &values);
+            linear
+                .negative_pivots(matrix, PIVOT_THRESHOLD, &mut self.stats)
+                .ok()
+        });
+        self.minimise_work.consistent = values;
+        count
     }
 }
 

@@ -23,6 +23,19 @@ pub fn row_order(pattern: &SymbolicSparseColMat<usize>) -> Vec<u32> {
     order
 }
 
+/// The values of a matrix of a symmetric pattern (both triangles stored, each column's rows
+/// sorted), by columns, put in the order by rows in place: the layout [`multiply_by_rows`]
+/// reads. On such a pattern an entry's place by rows is its transpose's place by columns, so
+/// [`row_order`] pairs the two and the values are swapped pair by pair.
+pub fn to_rows_in_place(row_order: &[u32], values: &mut [f64]) {
+    for (k, &p) in row_order.iter().enumerate() {
+        let p = p as usize;
+        if p > k {
+            values.swap(k, p);
+        }
+    }
+}
+
 /// `y = A x` for `A` of a symmetric pattern with its values `by_rows` in the order
 /// [`row_order`] gives. Each entry of the product is one running sum over its row, taken in
 /// the order of the columns as a product by columns adds them into it (the same values to the
@@ -222,6 +235,10 @@ mod tests {
         for (p, q) in y.iter().zip(&by_columns) {
             assert_eq!(p.to_bits(), q.to_bits(), "{p} against {q}");
         }
+        // The same layout made in place, without a second array.
+        let mut in_place = a.val().to_vec();
+        to_rows_in_place(&row_order(&pattern), &mut in_place);
+        assert_eq!(in_place, by_rows);
     }
 
     #[test]

@@ -36,6 +36,35 @@ pub struct SystemMatrix<'a> {
     pub row_order: &'a [u32],
 }
 
+/// The minimisation's work vectors, kept from one minimisation to the next so that, once
+/// grown to the system's size, none is allocated again: from some 25,000 grains a vector of
+/// the pattern's size (32 MB and more) is a fresh mapping of memory each time it is
+/// allocated, every page of it zeroed by the system as it is first written.
+#[derive(Debug, Default)]
+pub struct MinimiseWork {
+    residual: Vec<f64>,
+    trial_residual: Vec<f64>,
+    du: Vec<f64>,
+    trial_u: Vec<f64>,
+    loads: Vec<f64>,
+    shift: Vec<f64>,
+    /// The regularisation of the consistent tangent in a semi-smooth step.
+    regularised: Vec<f64>,
+    /// The consistent tangent's values in a semi-smooth step, put in the order by rows for
+    /// GMRES's products. Free between minimisations: other evaluations of a tangent in a
+    /// pattern (the stability indicator's) use it then.
+    pub consistent: Vec<f64>,
+    gmres: krylov::Gmres,
+}
+
+impl MinimiseWork {
+    /// Free the vectors of the pattern's size, before a new pattern is made: the next
+    /// minimisation makes them at its size, and the old and new are never held at once.
+    pub fn release_pattern_sized(&mut self) {
+        self.consistent = Vec::new();
+    }
+}
+
 /// An incremental potential `Pi(u)` with its gradient and projected Hessian in a fixed
 /// pattern.
 pub trait Potential {
@@ -285,13 +314,15 @@ const NEAR: f64 = 1e-4;
 /// and opens again step after step cycles with the residual creeping up.
 const CLOSING_RISE: f64 = 2.0;
 
-/// Minimise from `u`; `u` holds the last iterate on return.
+/// Minimise from `u`; `u` holds the last iterate on return. `work` holds the vectors it
+/// works in, of any size and contents: they are made the system's.
 pub fn minimise(
     eq: &mut dyn Potential,
     matrix: SystemMatrix<'_>,
     linear: &mut LinearSolver,
     u: &mut [f64],
     settings: &MinimiseSettings,
+    work: &mut MinimiseWork,
     stats: &mut SolverStats,
 ) -> Result<MinimiseOutcome, NumericError> {
     let n = u.len();
@@ -301,17 +332,33 @@ pub fn minimise(
         diagonal,
         row_order,
     } = matrix;
-    let mut residual = vec![0.0; n];
-    let mut trial_residual = vec![0.0; n];
-    let mut du = vec![0.0; n];
-    let mut trial_u = vec![0.0; n];
-    let mut loads = vec![0.0; n];
-    let mut shift = vec![0.0; n];
-    // The regularisation of the consistent tangent in a semi-smooth step (see there).
-    let mut regularised = vec![0.0; n];
+    let MinimiseWork {
+        residual,
+        trial_residual,
+        du,
+        trial_u,
+        loads,
+        shift,
+        regularised,
+        consistent,
+        gmres,
+    } = work;
+    for v in [
+        &mut *residual,
+        &mut *trial_residual,
+        &mut *du,
+        &mut *trial_u,
+        &mut *loads,
+        &mut *shift,
+        &mut *regularised,
+    ] {
+        v.clear();
+        v.resize(n, 0.0);
+    }
+    consistent.clear();
 
-    let mut energy = eq.evaluate(u, &mut residual, Some(values), true)?;
-    let (mut rel, mut worst, mut merit) = eq.residual_norm(&residual);
+    let mut energy = eq.evaluate(u, residual, Some(values), true)?;
+    let (mut rel, mut worst, mut merit) = eq.residual_norm(residual);
     let mut true_merit = merit;
     let mut out = MinimiseOutcome {
         history: vec![rel],
@@ -338,9 +385,6 @@ pub fn minimise(
     // the semi-smooth steps cycled and wait for the lagged descent to go a tenth below it.
     let mut lowest = (rel, 0usize);
     let mut cycled = false;
-    let (mut consistent, mut gmres) = (Vec::new(), krylov::Gmres::default());
-    // The consistent tangent's values in the order by rows, for GMRES's products.
-    let mut by_rows = Vec::new();
     // The grain last moved to its own equilibrium, with the states of its contacts there.
     let mut balanced: (usize, Vec<u8>) = (usize::MAX, Vec::new());
     // The grain the lagged descent last balanced, and the residual's 2-norm it left.
@@ -362,7 +406,7 @@ pub fn minimise(
             // The second refreeze makes the Hessian anew: where it does not confirm, the next
             // step is taken on the lag it took.
             confirmed = frozen;
-            (energy, (rel, worst, merit)) = refrozen(eq, u, &mut residual, values)?;
+            (energy, (rel, worst, merit)) = refrozen(eq, u, residual, values)?;
             true_merit = merit;
             frozen = true;
             match out.history.last_mut() {
@@ -391,7 +435,7 @@ pub fn minimise(
         let lm = lambda.max(settings.lambda_min);
         if !stale {
             let a = SparseColMatRef::new(symbolic.as_ref(), values);
-            let made = factorize_hessian(eq, a, diagonal, lm, &mut shift, linear, stats);
+            let made = factorize_hessian(eq, a, diagonal, lm, shift, linear, stats);
             factored = made.is_ok();
             if let Err(e) = made {
                 if lambda >= 1e6 {
@@ -405,15 +449,14 @@ pub fn minimise(
             // The consistent tangent's Newton step by GMRES, preconditioned by the last
             // Cholesky of the Hessian, and a line search on the true residual.
             consistent.resize(values.len(), 0.0);
-            eq.consistent_tangent(u, &mut residual, &mut consistent)?;
-            (rel, worst, merit) = eq.residual_norm(&residual);
+            eq.consistent_tangent(u, residual, consistent)?;
+            (rel, worst, merit) = eq.residual_norm(residual);
             true_merit = merit;
             frozen = true;
             if rel <= settings.tolerance {
                 continue;
             }
-            by_rows.clear();
-            by_rows.extend(row_order.iter().map(|&p| consistent[p as usize]));
+            krylov::to_rows_in_place(row_order, consistent);
             // The consistent tangent is regularised as the Hessian is (`regularise` with the
             // present Levenberg-Marquardt factor: its share on every row, and the floor of rows
             // with no stiffness). A grain whose contacts all slide has no stiffness along its
@@ -421,31 +464,31 @@ pub fn minimise(
             // turns it without bound and no share of the step lowers the residual
             // (docs/minimise.md, "The semi-smooth step regularised as the Hessian is, kept").
             // The share falls tenfold after each step taken; the floor stays.
-            regularise(eq, values, diagonal, lm, &mut regularised);
+            regularise(eq, values, diagonal, lm, regularised);
             let mut solve = |linear: &mut LinearSolver, du: &mut [f64], stats: &mut SolverStats| {
                 du.fill(0.0);
                 gmres.solve(
                     &mut |v, out| {
-                        krylov::multiply_by_rows(symbolic, &by_rows, v, out);
-                        for ((o, r), x) in out.iter_mut().zip(&regularised).zip(v) {
+                        krylov::multiply_by_rows(symbolic, consistent, v, out);
+                        for ((o, r), x) in out.iter_mut().zip(regularised.iter()).zip(v) {
                             *o += r * x;
                         }
                     },
                     &mut |v| linear.solve_in_place(v, stats),
-                    &residual,
+                    residual,
                     du,
                     KRYLOV_TOLERANCE,
                     KRYLOV_ITERATIONS,
                 )
             };
-            let mut solved = solve(linear, &mut du, stats);
+            let mut solved = solve(linear, du, stats);
             if solved.is_none() && stale {
                 // The earlier factor no longer serves: this iterate's Hessian may.
                 let a = SparseColMatRef::new(symbolic.as_ref(), values);
-                let made = factorize_hessian(eq, a, diagonal, lm, &mut shift, linear, stats);
+                let made = factorize_hessian(eq, a, diagonal, lm, shift, linear, stats);
                 factored = made.is_ok();
                 if factored {
-                    solved = solve(linear, &mut du, stats);
+                    solved = solve(linear, du, stats);
                 }
             }
             if solved.is_none() {
@@ -454,22 +497,22 @@ pub fn minimise(
                 (semismooth, stalls) = (false, 0);
                 semismooth_below = RETRY_SHARE * rel;
                 held_off_at = out.iterations;
-                (energy, (rel, worst, merit)) = refrozen(eq, u, &mut residual, values)?;
+                (energy, (rel, worst, merit)) = refrozen(eq, u, residual, values)?;
                 true_merit = merit;
                 continue;
             }
             // A contact closing within the step has none of its stiffness in the tangent:
             // the step stops where it closes, and the next one has it (an active set).
-            let reach = eq.reach(u, &du);
-            let closing = eq.closing(u, &du);
+            let reach = eq.reach(u, du);
+            let closing = eq.closing(u, du);
             let mut alpha = reach.min(closing);
             let first = alpha;
             let accepted = loop {
                 for k in 0..n {
                     trial_u[k] = u[k] + alpha * du[k];
                 }
-                eq.evaluate(&trial_u, &mut trial_residual, None, true)?;
-                let (_, _, t_merit) = eq.residual_norm(&trial_residual);
+                eq.evaluate(trial_u, trial_residual, None, true)?;
+                let (_, _, t_merit) = eq.residual_norm(trial_residual);
                 if t_merit <= (1.0 - ARMIJO * alpha) * merit {
                     break true;
                 }
@@ -484,7 +527,7 @@ pub fn minimise(
                 alpha *= 0.5;
             };
             if accepted {
-                u.copy_from_slice(&trial_u);
+                u.copy_from_slice(trial_u);
                 out.changed |= eq.place_loose(u);
                 lambda *= 0.1;
             } else {
@@ -494,10 +537,10 @@ pub fn minimise(
                 held_off_at = out.iterations;
                 lambda = (100.0 * lambda).max(1e-4);
             }
-            (energy, (rel, worst, merit)) = refrozen(eq, u, &mut residual, values)?;
+            (energy, (rel, worst, merit)) = refrozen(eq, u, residual, values)?;
             true_merit = merit;
-            if balance_worst(eq, u, &residual, rel, worst, settings, &mut balanced) {
-                (energy, (rel, worst, merit)) = refrozen(eq, u, &mut residual, values)?;
+            if balance_worst(eq, u, residual, rel, worst, settings, &mut balanced) {
+                (energy, (rel, worst, merit)) = refrozen(eq, u, residual, values)?;
                 true_merit = merit;
             }
             out.history.push(rel);
@@ -512,8 +555,8 @@ pub fn minimise(
             }
             continue;
         }
-        du.copy_from_slice(&residual);
-        linear.solve_in_place(&mut du, stats);
+        du.copy_from_slice(residual);
+        linear.solve_in_place(du, stats);
         if du.iter().any(|v| !v.is_finite()) {
             return Err(NumericError::NotFinite {
                 what: "Newton step",
@@ -522,33 +565,33 @@ pub fn minimise(
         }
 
         // Armijo backtracking on the potential, from no further than the lists reach.
-        let slope = -dot(&residual, &du);
+        let slope = -dot(residual, du);
         if slope >= 0.0 {
             // Round-off left a (nearly) singular step that does not descend: regularise.
             lambda = (100.0 * lambda).max(1e-4);
             continue;
         }
-        let reach = eq.reach(u, &du);
+        let reach = eq.reach(u, du);
         let mut alpha = reach;
         loads.copy_from_slice(eq.loads());
-        let scale = energy.abs() + dot(&loads, u).abs();
+        let scale = energy.abs() + dot(loads, u).abs();
         // Whether the step taken changed the potential by no more than round-off.
         let mut flat = false;
         let accepted = loop {
             for k in 0..n {
                 trial_u[k] = u[k] + alpha * du[k];
             }
-            let trial_energy = eq.evaluate(&trial_u, &mut trial_residual, None, false)?;
+            let trial_energy = eq.evaluate(trial_u, trial_residual, None, false)?;
             let work: f64 = 0.5
                 * alpha
                 * eq.loads()
                     .iter()
-                    .zip(&loads)
-                    .zip(&du)
+                    .zip(loads.iter())
+                    .zip(du.iter())
                     .map(|((a, b), d)| (a + b) * d)
                     .sum::<f64>();
             let fall = trial_energy - energy - work;
-            let (t_rel, _, t_merit) = eq.residual_norm(&trial_residual);
+            let (t_rel, _, t_merit) = eq.residual_norm(trial_residual);
             let armijo = fall <= ARMIJO * alpha * slope;
             let hidden = fall.abs() <= ROUNDOFF * scale && t_merit < merit;
             let near = rel < NEAR && t_merit <= (1.0 - ARMIJO * alpha) * merit;
@@ -566,7 +609,7 @@ pub fn minimise(
         let Some(trial_merit) = accepted else {
             if !frozen {
                 // The lagged potential is as low as round-off lets it go: refreeze.
-                (energy, (rel, worst, merit)) = refrozen(eq, u, &mut residual, values)?;
+                (energy, (rel, worst, merit)) = refrozen(eq, u, residual, values)?;
                 stalls = lag_stalls(stalls, merit, true_merit);
                 true_merit = merit;
                 frozen = true;
@@ -586,7 +629,7 @@ pub fn minimise(
         } else {
             (10.0 * lambda).max(1e-6)
         };
-        u.copy_from_slice(&trial_u);
+        u.copy_from_slice(trial_u);
         if eq.place_loose(u) {
             out.changed = true;
             break;
@@ -599,8 +642,8 @@ pub fn minimise(
         held = if frozen { 1 } else { held + 1 };
         frozen =
             trial_merit <= INNER * true_merit || flat || rel > HOLD_BELOW || held >= HOLD_STEPS;
-        energy = eq.evaluate(u, &mut residual, Some(values), frozen)?;
-        (rel, worst, merit) = eq.residual_norm(&residual);
+        energy = eq.evaluate(u, residual, Some(values), frozen)?;
+        (rel, worst, merit) = eq.residual_norm(residual);
         if frozen {
             let stalls_before = stalls;
             stalls = lag_stalls(stalls, merit, true_merit);
@@ -610,8 +653,8 @@ pub fn minimise(
                 semismooth_below = f64::INFINITY;
             }
             let grain = worst;
-            if balance_worst(eq, u, &residual, rel, worst, settings, &mut balanced) {
-                (energy, (rel, worst, merit)) = refrozen(eq, u, &mut residual, values)?;
+            if balance_worst(eq, u, residual, rel, worst, settings, &mut balanced) {
+                (energy, (rel, worst, merit)) = refrozen(eq, u, residual, values)?;
                 true_merit = merit;
                 // The same grain balanced again, the residual left above where its last
                 // balance left it: the step and the balance undo each other, and the lag
