@@ -9,6 +9,10 @@
 //!     grainstat generate examples/sample-sand.toml -o samples/sand.h5
 //!     cargo bench --bench minimise
 //!     MINIMISE_BENCH_SCENE=other-scene.toml cargo bench --bench minimise
+//!     MINIMISE_BENCH_CRYSTAL=100000 cargo bench --bench minimise
+//!
+//! `MINIMISE_BENCH_CRYSTAL=N` takes the sandstone crystal of about N grains that
+//! `examples/scale.rs` times (`samples::crystal_biaxial`, rows 1.6 times the columns).
 
 use criterion::measurement::{Measurement, ValueFormatter, WallTime};
 use criterion::{criterion_group, criterion_main, Criterion};
@@ -20,6 +24,7 @@ use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::SparseColMatRef;
 use faer::{Par, Side};
 use grainstat::run;
+use grainstat::samples;
 use grainstat::scene::{load_scene, load_solver};
 use grainstat::solver::minimise::regularise;
 use grainstat::solver::{LinearSolver, SolverStats};
@@ -37,7 +42,16 @@ fn minimise(c: &mut Criterion<CpuTime>) {
         .unwrap();
     let scene_path = std::env::var("MINIMISE_BENCH_SCENE").unwrap_or(SCENE.into());
     let scene_path = Path::new(&scene_path);
-    let (scene, _) = load_scene(scene_path).unwrap();
+    let crystal = std::env::var("MINIMISE_BENCH_CRYSTAL").ok();
+    let scene = match crystal.as_deref().map(str::parse::<usize>) {
+        Some(Ok(grains)) => {
+            let columns = ((grains as f64 / 1.6).sqrt().round() as usize).max(2);
+            let rows = (grains / columns).max(3) | 1;
+            samples::crystal_biaxial(rows, columns, 1e6, 3e6)
+        }
+        Some(Err(_)) => panic!("MINIMISE_BENCH_CRYSTAL: a number of grains"),
+        None => load_scene(scene_path).unwrap().0,
+    };
     let (config, _) = load_solver(Path::new("solvers/minimise.toml")).unwrap();
     let mut sim = match run::start(&scene, scene_path, config) {
         Ok(sim) => sim,
