@@ -12,7 +12,7 @@
 //!     MINIMISE_BENCH_CRYSTAL=100000 cargo bench --bench minimise
 //!
 //! `MINIMISE_BENCH_CRYSTAL=N` takes the sandstone crystal of about N grains that
-//! `examples/scale.rs` times (`samples::crystal_biaxial`, rows 1.6 times the columns).
+//! `examples/scale.rs` times (`samples::crystal_of_about`).
 
 use criterion::measurement::{Measurement, ValueFormatter, WallTime};
 use criterion::{criterion_group, criterion_main, Criterion};
@@ -44,11 +44,7 @@ fn minimise(c: &mut Criterion<CpuTime>) {
     let scene_path = Path::new(&scene_path);
     let crystal = std::env::var("MINIMISE_BENCH_CRYSTAL").ok();
     let scene = match crystal.as_deref().map(str::parse::<usize>) {
-        Some(Ok(grains)) => {
-            let columns = ((grains as f64 / 1.6).sqrt().round() as usize).max(2);
-            let rows = (grains / columns).max(3) | 1;
-            samples::crystal_biaxial(rows, columns, 1e6, 3e6)
-        }
+        Some(Ok(grains)) => samples::crystal_of_about(grains),
         Some(Err(_)) => panic!("MINIMISE_BENCH_CRYSTAL: a number of grains"),
         None => load_scene(scene_path).unwrap().0,
     };

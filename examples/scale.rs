@@ -1,5 +1,5 @@
 //! How time and memory grow with the number of grains: one sandstone crystal per size
-//! (`samples::crystal_biaxial`, table 8, between four walls), set up, then its first load
+//! (`samples::crystal_of_about`, table 8, between four walls), set up, then its first load
 //! increment and a short run of three more, each size in a process of its own so that its peak
 //! memory is its own. Prints two markdown tables: time and memory by size, and where the time
 //! of the four increments went, stage by stage, beside the time of one factorisation.
@@ -101,12 +101,10 @@ fn usage() -> ! {
     std::process::exit(2);
 }
 
-/// The two table rows for a crystal of about `grains` grains (rows = 1.6 columns, so that the
-/// crystal is about as high as wide), run on `threads` threads.
+/// The two table rows for the crystal of about `grains` grains
+/// ([`samples::crystal_of_about`]), run on `threads` threads.
 fn measure(grains: usize, threads: usize) -> (String, String) {
-    let columns = ((grains as f64 / 1.6).sqrt().round() as usize).max(2);
-    let rows = (grains / columns).max(3) | 1;
-    let scene = samples::crystal_biaxial(rows, columns, 1e6, 3e6);
+    let scene = samples::crystal_of_about(grains);
     let start = Instant::now();
     let built = build_grains(&scene.grains, Path::new("."), "scale").expect("crystal");
     let mut sim = Simulation::new(&scene, built, SolverConfig::default(), "scale").expect("set-up");

@@ -25,6 +25,15 @@ pub fn hex_crystal(rows: usize, columns: usize, radius: f64, short_first: bool) 
     GrainSet::new(position, vec![radius; n])
 }
 
+/// [`crystal_biaxial`] of about `grains` grains, at 1 and 3 MPa: rows 1.6 times the columns
+/// (an odd number of them), so that the crystal is about as high as wide. The crystal whose
+/// time and memory `examples/scale.rs` and `benches/minimise.rs` measure by its size.
+pub fn crystal_of_about(grains: usize) -> Scene {
+    let columns = ((grains as f64 / 1.6).sqrt().round() as usize).max(2);
+    let rows = (grains / columns).max(3) | 1;
+    crystal_biaxial(rows, columns, 1e6, 3e6)
+}
+
 /// A crystal of `rows` x `columns` grains of radius 0.1 mm (long rows at top and bottom when
 /// `rows` is odd) with the sandstone defaults of table 8 (linear law, `k_n` = 1 MN/m,
 /// `nu_mu = 0.16`, cemented), between four walls: bottom and left held, top and right
