@@ -58,8 +58,9 @@ pub struct MinimiseWork {
 }
 
 impl MinimiseWork {
-    /// Free the vectors of the pattern's size, before a new pattern is made: the next
-    /// minimisation makes them at its size, and the old and new are never held at once.
+    /// Free the vector of the pattern's size (the consistent tangent's) before a new pattern
+    /// is made: the next use makes it at the new size, and the old and new are not held at
+    /// once.
     pub fn release_pattern_sized(&mut self) {
         self.consistent = Vec::new();
     }
