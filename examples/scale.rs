@@ -6,6 +6,7 @@
 //!
 //!     cargo run --release --example scale -- 1000 10000 100000 1000000
 //!     cargo run --release --example scale -- --threads 2 10000 100000
+//!     cargo run --release --example scale -- --ordering metis 10000 100000
 //!
 //! Crystals are built in milliseconds; a prepared sample of a million grains is not. A
 //! crystal has three contacts per grain against the four of a dense prepared sample.
@@ -13,7 +14,7 @@
 use grainstat::samples;
 use grainstat::scene::build_grains;
 use grainstat::simulation::Simulation;
-use grainstat::solver::SolverConfig;
+use grainstat::solver::{FillOrdering, SolverConfig};
 use std::path::Path;
 use std::process::Command;
 use std::time::Instant;
@@ -31,13 +32,21 @@ fn main() {
         };
         args.drain(at..at + 2);
     }
+    let mut ordering = "auto".to_string();
+    if let Some(at) = args.iter().position(|a| a == "--ordering") {
+        ordering = args.get(at + 1).cloned().unwrap_or_else(|| usage());
+        args.drain(at..at + 2);
+    }
+    let Ok(fill) = toml::Value::String(ordering.clone()).try_into::<FillOrdering>() else {
+        usage()
+    };
     if args.first().map(String::as_str) == Some("--one") {
         let grains = args.get(1).and_then(|n| n.parse().ok()).unwrap_or(1000);
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads.max(1))
             .build()
             .expect("the thread pool");
-        let (size, stages) = pool.install(|| measure(grains, threads));
+        let (size, stages) = pool.install(|| measure(grains, threads, fill));
         println!("{size}\n{stages}");
         return;
     }
@@ -56,6 +65,8 @@ fn main() {
             .args([
                 "--threads",
                 &threads.to_string(),
+                "--ordering",
+                &ordering,
                 "--one",
                 &grains.to_string(),
             ])
@@ -76,10 +87,10 @@ fn main() {
         ));
     }
     println!(
-        "| grains | unknowns | contacts | set-up (s) | first increment (s) | Newton iterations | \
-         next {SHORT_RUN} increments (s) | peak memory (MB) |"
+        "| grains | unknowns | contacts | factor entries | set-up (s) | first increment (s) | \
+         Newton iterations | next {SHORT_RUN} increments (s) | peak memory (MB) |"
     );
-    println!("|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|");
     for (size, _) in &rows {
         println!("{size}");
     }
@@ -97,17 +108,23 @@ fn main() {
 }
 
 fn usage() -> ! {
-    eprintln!("usage: scale [--threads N] [GRAINS ...]  (whole numbers)");
+    eprintln!(
+        "usage: scale [--threads N] [--ordering auto|amd|metis] [GRAINS ...]  (whole numbers)"
+    );
     std::process::exit(2);
 }
 
 /// The two table rows for the crystal of about `grains` grains
-/// ([`samples::crystal_of_about`]), run on `threads` threads.
-fn measure(grains: usize, threads: usize) -> (String, String) {
+/// ([`samples::crystal_of_about`]), run on `threads` threads with the Cholesky in `ordering`.
+fn measure(grains: usize, threads: usize, ordering: FillOrdering) -> (String, String) {
     let scene = samples::crystal_of_about(grains);
     let start = Instant::now();
     let built = build_grains(&scene.grains, Path::new("."), "scale").expect("crystal");
-    let mut sim = Simulation::new(&scene, built, SolverConfig::default(), "scale").expect("set-up");
+    let config = SolverConfig {
+        ordering,
+        ..SolverConfig::default()
+    };
+    let mut sim = Simulation::new(&scene, built, config, "scale").expect("set-up");
     let setup = start.elapsed().as_secs_f64();
 
     // The stages of the increments alone, not of the set-up.
@@ -121,10 +138,11 @@ fn measure(grains: usize, threads: usize) -> (String, String) {
     }
     let short = start.elapsed().as_secs_f64();
     let size = format!(
-        "| {} | {} | {} | {setup:.2} | {first_time:.2} | {} | {short:.2} | {:.0} |",
+        "| {} | {} | {} | {} | {setup:.2} | {first_time:.2} | {} | {short:.2} | {:.0} |",
         sim.state.grains.len(),
         sim.dofs().len,
         sim.state.contacts.contacts.len(),
+        sim.factor_entries(),
         first.newton_iterations,
         peak_memory_mb()
     );

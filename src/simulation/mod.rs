@@ -136,7 +136,7 @@ impl Simulation {
         let pattern = Arc::new(Pattern::build(&friends, &dofs, &state.walls, &links));
         let mut sim = Simulation {
             name,
-            linear: LinearSolver::new(),
+            linear: LinearSolver::in_order(config.ordering),
             config,
             material,
             depth,
@@ -189,6 +189,11 @@ impl Simulation {
     /// The unknowns of this scene.
     pub fn dofs(&self) -> &DofMap {
         &self.dofs
+    }
+
+    /// Values the Cholesky factor of the current pattern holds: its fill.
+    pub fn factor_entries(&self) -> usize {
+        self.linear.factor_entries()
     }
 
     /// Make the workspace the one a run resumed from the committed state starts with

@@ -72,7 +72,7 @@ impl Simulation {
             );
             let links: Vec<(usize, usize)> = self.chains.iter().flat_map(Chain::links).collect();
             let pattern = Arc::new(Pattern::build(&self.friends, &dofs, &walls, &links));
-            let mut linear = LinearSolver::new();
+            let mut linear = LinearSolver::in_order(self.config.ordering);
             linear.analyse(&pattern.symbolic, &mut self.stats).ok()?;
             self.freed = Some(FreedSystem {
                 source: Arc::clone(&self.pattern),

@@ -1,6 +1,7 @@
 //! Solver settings: how a scene is solved, read from a file under `solvers/`. Plain data with
 //! documented defaults; [`SolverConfig::validate`] says what is out of range.
 
+use super::linear::FillOrdering;
 use serde::{Deserialize, Serialize};
 
 /// How the equilibrium of an increment is found.
@@ -75,6 +76,11 @@ pub struct SolverConfig {
     /// whenever the pattern changes. Default on.
     #[serde(default = "yes")]
     pub stability_indicator: bool,
+    /// The Cholesky's fill-reducing ordering: `"amd"` (faer's approximate minimum degree),
+    /// `"metis"` (METIS's nested dissection), or `"auto"`: AMD below a million unknowns,
+    /// METIS from there, the faster on each side as measured. Default `"auto"`.
+    #[serde(default)]
+    pub ordering: FillOrdering,
 }
 
 fn default_strategy() -> Strategy {

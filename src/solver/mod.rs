@@ -10,6 +10,6 @@ pub mod relaxation;
 pub mod stats;
 
 pub use config::{SolverConfig, Strategy};
-pub use linear::LinearSolver;
+pub use linear::{FillOrdering, LinearSolver};
 pub use minimise::{MinimiseOutcome, MinimiseSettings, Potential};
 pub use stats::{Counters, SolverStats, StageTimers};
