@@ -102,7 +102,8 @@ impl Cholesky {
     fn analyse(
         pattern: &SymbolicSparseColMat<usize>,
         ordering: FillOrdering,
-    ) -> Result<Self, faer::sparse::FaerError> {
+    ) -> Result<Self, NotFactorizable> {
+        let faer_error = |e: faer::sparse::FaerError| NotFactorizable(format!("{e:?}"));
         let params = CholeskySymbolicParams {
             supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
             ..Default::default()
@@ -119,14 +120,16 @@ impl Cholesky {
                 Side::Lower,
                 SymmetricOrdering::Custom(PermRef::new_checked(&fwd, &inv, fwd.len())),
                 params,
-            )?
+            )
+            .map_err(faer_error)?
         } else {
             factorize_symbolic_cholesky(
                 pattern.as_ref(),
                 Side::Lower,
                 SymmetricOrdering::Amd,
                 params,
-            )?
+            )
+            .map_err(faer_error)?
         };
         let perm = symbolic.perm().expect("an ordering");
         let (ordered, source) = permute(pattern, perm);
@@ -165,15 +168,15 @@ impl Cholesky {
 
 /// METIS's nested dissection of the graph of `pattern` (both triangles stored), with its
 /// default options (a fixed seed: the same order every run): the unknown of each pivot, and
-/// the pivot of each unknown. A graph too large for METIS's 32-bit indices is an
-/// `IndexOverflow`.
+/// the pivot of each unknown.
 fn nested_dissection(
     pattern: &SymbolicSparseColMat<usize>,
-) -> Result<(Vec<usize>, Vec<usize>), faer::sparse::FaerError> {
-    use faer::sparse::FaerError;
+) -> Result<(Vec<usize>, Vec<usize>), NotFactorizable> {
     let n = pattern.nrows();
     if pattern.row_idx().len() > metis_sys::idx_t::MAX as usize {
-        return Err(FaerError::IndexOverflow);
+        return Err(NotFactorizable(
+            "the pattern has more entries than METIS's 32-bit indices hold".into(),
+        ));
     }
     let mut xadj: Vec<metis_sys::idx_t> = Vec::with_capacity(n + 1);
     let mut adjncy: Vec<metis_sys::idx_t> = Vec::with_capacity(pattern.row_idx().len());
@@ -211,8 +214,10 @@ fn nested_dissection(
     };
     match status {
         metis_sys::rstatus_et_METIS_OK => {}
-        metis_sys::rstatus_et_METIS_ERROR_MEMORY => return Err(FaerError::OutOfMemory),
-        _ => return Err(FaerError::IndexOverflow),
+        metis_sys::rstatus_et_METIS_ERROR_MEMORY => {
+            return Err(NotFactorizable("METIS ran out of memory".into()))
+        }
+        status => return Err(NotFactorizable(format!("METIS_NodeND failed ({status})"))),
     }
     let fwd: Vec<usize> = perm.iter().map(|&k| k as usize).collect();
     let inv: Vec<usize> = iperm.iter().map(|&k| k as usize).collect();
@@ -490,8 +495,7 @@ impl LinearSolver {
         } else {
             Par::Seq
         };
-        let c = Cholesky::analyse(pattern, self.ordering)
-            .map_err(|e| NotFactorizable(format!("{e:?}")))?;
+        let c = Cholesky::analyse(pattern, self.ordering)?;
         // The supernodal factorisations' own scratch: the matrix comes already in the order.
         let s = supernodes(&c.symbolic);
         self.scratch = MemBuffer::new(StackReq::any_of(&[
