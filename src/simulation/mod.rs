@@ -95,9 +95,6 @@ pub struct Simulation {
     /// Pairs whose contact the relaxation lost in this increment, sorted: made again, they
     /// push but do not pull (see [`IncrementEquations::reopened`]).
     reopened: Vec<Pair>,
-    /// The stability indicator's system with every wall free, kept while the pattern it was
-    /// made from is the current one and it couples the membranes' chains.
-    freed: Option<stability::FreedSystem>,
     /// The minimisation's work vectors, kept from one minimisation to the next.
     minimise_work: MinimiseWork,
     /// The energy the increment being solved dissipated by sliding and released by breaking
@@ -158,7 +155,6 @@ impl Simulation {
             anchors: anchors(&state.grains, &state.walls, &state.contacts.contacts),
             loose: Vec::new(),
             reopened: Vec::new(),
-            freed: None,
             minimise_work: MinimiseWork::default(),
             energy: EnergyBalance::default(),
             values: vec![0.0; pattern.nnz()],

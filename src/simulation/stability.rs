@@ -1,30 +1,25 @@
 //! The stability indicator: the negative pivots of an `L D L^T` of the symmetric tangent at a
 //! converged state, with every displacement-controlled wall freed.
 
+use super::equations::IncrementEquations;
 use super::{LoadStep, Simulation};
-use crate::assembly::{DofMap, Pattern};
-use crate::geometry::{Chain, WallControl};
-use crate::solver::LinearSolver;
+use crate::assembly::{contact_block, BlockTangent, DofMap, LocalBlock};
 use faer::sparse::SparseColMatRef;
 use std::sync::Arc;
-
-/// The unknowns, pattern and Cholesky analysis of the tangent with every displacement-
-/// controlled wall freed (see [`Simulation::negative_pivots`]), made from `source`.
-pub(super) struct FreedSystem {
-    source: Arc<Pattern>,
-    source_dofs: DofMap,
-    dofs: DofMap,
-    pattern: Arc<Pattern>,
-    linear: LinearSolver,
-}
 
 impl Simulation {
     /// The stability indicator at the converged `u` of `step`: the negative pivots of an
     /// `L D L^T` of the symmetric (elasto-plastic) tangent, unregularised, with every
     /// displacement-controlled wall freed and held by its reaction as a dead load. Freed,
     /// a wall adds the sample's stiffness against it (the slope of its load-displacement
-    /// curve, a Schur complement) to the count: a softening sample shows a negative pivot
-    /// even where its walls are moved, as at the peak of a biaxial test.
+    /// curve) to the count: a softening sample shows a negative pivot even where its walls
+    /// are moved, as at the peak of a biaxial test.
+    ///
+    /// The freed walls' unknowns come last, after the minimisation's own: the pivots are
+    /// then those of the tangent `K` in the minimisation's unknowns, factorised in its
+    /// pattern and analysis, and those of the Schur complement `S = K_ff - K_fg K^-1 K_gf`
+    /// of the freed walls `f` (a few), found with solves of that factor (Haynsworth's
+    /// inertia additivity). No second pattern or analysis is made.
     ///
     /// The tangent is scaled to pivots of order one first (each row and column by
     /// `1 / sqrt(k u_i)`, `k` the mean diagonal stiffness, `u_i` the unit of the row: a
@@ -35,134 +30,150 @@ impl Simulation {
         if !self.config.stability_indicator {
             return None;
         }
-        if self
-            .state
-            .walls
-            .walls
-            .iter()
-            .all(|w| w.control == WallControl::Stress)
-        {
-            let pattern = Arc::clone(&self.pattern);
-            let dofs = self.dofs.clone();
-            let mut linear = std::mem::take(&mut self.linear);
-            let count = self.count_negative_pivots(step, u, &dofs, &pattern, &mut linear);
-            self.linear = linear;
-            return count;
-        }
-        let current = self.freed.as_ref().is_some_and(|f| {
-            Arc::ptr_eq(&f.source, &self.pattern)
-                && f.source_dofs == self.dofs
-                && f.pattern.couples(&f.dofs, &self.chains)
-        });
-        if !current {
-            // The freed system is made anew where the pattern was: the vectors of the
-            // pattern's size go first, so that the two systems' are not held at once.
-            self.freed = None;
-            self.minimise_work.release_pattern_sized();
-            let mut walls = self.state.walls.clone();
-            for wall in &mut walls.walls {
-                wall.control = WallControl::Stress;
+        let mut freed = self.dofs.clone();
+        for wall in &mut freed.wall {
+            if wall.is_none() {
+                *wall = Some(freed.len);
+                freed.len += 1;
             }
-            let dofs = DofMap::new(
-                self.state.grains.len(),
-                self.material.fixed_rotations,
-                &walls,
-                &self.state.contacts.glued(self.state.grains.len()),
-                &self.state.grains.taken_out,
-            );
-            let links: Vec<(usize, usize)> = self.chains.iter().flat_map(Chain::links).collect();
-            let pattern = Arc::new(Pattern::build(&self.friends, &dofs, &walls, &links));
-            let mut linear = LinearSolver::in_order(self.config.ordering);
-            linear.analyse(&pattern.symbolic, &mut self.stats).ok()?;
-            self.freed = Some(FreedSystem {
-                source: Arc::clone(&self.pattern),
-                source_dofs: self.dofs.clone(),
-                dofs,
-                pattern,
-                linear,
-            });
         }
-        let mut freed = self.freed.take()?;
-        freed
-            .dofs
-            .follow(&self.state.grains, &self.state.walls, &step.turn);
-        // The walls' unknowns at where the step took them.
-        let mut u_freed = vec![0.0; freed.dofs.len];
-        let grain_unknowns = freed.dofs.grains * freed.dofs.per_grain;
-        u_freed[..grain_unknowns].copy_from_slice(&u[..grain_unknowns]);
-        for (w, dof) in freed.dofs.wall.iter().enumerate() {
-            u_freed[dof.expect("every wall freed")] = match self.dofs.wall[w] {
-                Some(k) => u[k],
-                None => step.normal_move[w],
-            };
-        }
-        // The freed system's L D L^T goes into the storage of the minimisation's L L^T, which
-        // the next minimisation factorises anew: one factor held, not two.
-        freed.linear.give_factor(self.linear.take_factor());
-        let count = self.count_negative_pivots(
-            step,
-            &u_freed,
-            &freed.dofs,
-            &freed.pattern,
-            &mut freed.linear,
-        );
-        self.linear.give_factor(freed.linear.take_factor());
-        self.freed = Some(freed);
-        count
-    }
-
-    /// Negative pivots of the scaled symmetric tangent at `u` in the unknowns `dofs` and
-    /// their `pattern`, analysed in `linear`.
-    fn count_negative_pivots(
-        &mut self,
-        step: &LoadStep,
-        u: &[f64],
-        dofs: &DofMap,
-        pattern: &Pattern,
-        linear: &mut LinearSolver,
-    ) -> Option<usize> {
         // The consistent tangent's storage, free between minimisations, holds the tangent.
+        let pattern = Arc::clone(&self.pattern);
         let mut values = std::mem::take(&mut self.minimise_work.consistent);
         values.clear();
         values.resize(pattern.nnz(), 0.0);
-        let mut residual = vec![0.0; dofs.len];
+        let mut residual = vec![0.0; self.dofs.len];
         let mut eq = self.equations(step);
-        eq.dofs = dofs;
-        eq.pattern = pattern;
-        eq.symmetric = true;
-        eq.projected = false;
+        (eq.symmetric, eq.projected) = (true, false);
         let evaluated = eq.evaluate_at(u, &mut residual, Some(&mut values));
-        let unit: Vec<f64> = (0..dofs.len).map(|dof| eq.unit_stiffness(dof)).collect();
+        let (columns, corner) = freed_wall_columns(&eq, &freed);
+        let unit: Vec<f64> = (0..eq.dofs.len).map(|dof| eq.unit_stiffness(dof)).collect();
         let timers = eq.timers;
         self.add_timers(timers);
+        drop(freed);
         let count = evaluated.ok().and_then(|_| {
-            scale_tangent(pattern, &mut values, &unit);
+            // The scale of the rows: the minimisation's unknowns, then the freed walls (unit 1).
+            let diagonal = pattern
+                .diagonal
+                .iter()
+                .zip(&unit)
+                .map(|(&s, &u)| (values[s], u));
+            let k = mean_stiffness(
+                diagonal.chain(corner.iter().enumerate().map(|(f, row)| (row[f], 1.0))),
+            );
+            let scale: Vec<f64> = unit.iter().map(|u| 1.0 / (k * u).sqrt()).collect();
+            let wall_scale = 1.0 / k.sqrt();
+            scale_tangent(&pattern, &mut values, &scale);
             let matrix = SparseColMatRef::new(pattern.symbolic.as_ref(), &values);
-            linear
+            let in_grains = self
+                .linear
                 .negative_pivots(matrix, PIVOT_THRESHOLD, &mut self.stats)
-                .ok()
+                .ok()?;
+            // S, scaled: `K_ff - K_fg X`, `X` from the solves of `K X = K_gf`, all at once.
+            let (n, f) = (scale.len(), columns.len());
+            let mut x = vec![0.0; n * f];
+            for (x, column) in x.chunks_exact_mut(n).zip(&columns) {
+                for &(row, value) in column {
+                    x[row] += scale[row] * value * wall_scale;
+                }
+            }
+            if f > 0 {
+                self.linear
+                    .solve_ldlt_in_place(&mut x, f, &mut self.stats)
+                    .ok()?;
+            }
+            let schur: Vec<Vec<f64>> = (0..f)
+                .map(|v| {
+                    (0..f)
+                        .map(|w| {
+                            let x = &x[w * n..(w + 1) * n];
+                            let product: f64 = columns[v]
+                                .iter()
+                                .map(|&(row, value)| scale[row] * value * wall_scale * x[row])
+                                .sum();
+                            corner[v][w] * wall_scale * wall_scale - product
+                        })
+                        .collect()
+                })
+                .collect();
+            Some(in_grains + dense_negative_pivots(schur, PIVOT_THRESHOLD))
         });
         self.minimise_work.consistent = values;
         count
     }
 }
 
+/// A freed wall's column of the tangent on the minimisation's rows: (row, value).
+type WallColumn = Vec<(usize, f64)>;
+
+/// The symmetric tangent's entries in the columns of the walls that `freed` makes unknowns
+/// beyond `eq.dofs` (numbered from `eq.dofs.len` on), at the configuration of `eq`'s last
+/// evaluation: for each such wall, its entries on the rows of `eq.dofs` (row, value; a row
+/// may come more than once, to be summed), and the block among the freed walls. They come
+/// from the contacts whose unknowns in `freed` reach a freed wall (the wall's own contacts
+/// and those of grains glued to it); the walls' loads add nothing, a freed wall being held by
+/// a dead load.
+fn freed_wall_columns(
+    eq: &IncrementEquations<'_>,
+    freed: &DofMap,
+) -> (Vec<WallColumn>, Vec<Vec<f64>>) {
+    let n = eq.dofs.len;
+    let f = freed.len - n;
+    let (mut columns, mut corner) = (vec![Vec::new(); f], vec![vec![0.0; f]; f]);
+    let exact = eq.lagged && !eq.consistent;
+    let mut block = LocalBlock::default();
+    for (i, c) in eq.contacts.iter().enumerate() {
+        if c.response.is_zero() || freed.glues(c.pair) {
+            continue;
+        }
+        let map = freed.pair_map(c.pair, eq.push_direction(c.pair, i));
+        let dofs = &map.dofs[..map.len];
+        if dofs.iter().all(|&d| d < n) {
+            continue;
+        }
+        contact_block(
+            &eq.kin[i],
+            &c.response,
+            &map,
+            Some(BlockTangent::Symmetric),
+            exact,
+            &mut block,
+        );
+        for (b, &col) in dofs.iter().enumerate().filter(|(_, &col)| col >= n) {
+            for (a, &row) in dofs.iter().enumerate() {
+                let value = block.stiffness[a][b];
+                if row < n {
+                    columns[col - n].push((row, value));
+                } else {
+                    corner[row - n][col - n] += value;
+                }
+            }
+        }
+    }
+    (columns, corner)
+}
+
 /// Pivots of the scaled tangent (of order one) above `-PIVOT_THRESHOLD` count as zero in the
 /// stability indicator.
 const PIVOT_THRESHOLD: f64 = 1e-8;
 
-/// Scale the tangent `values` in place to `S K S`, `S_ii = 1 / sqrt(k unit_i)`, `k` the mean
-/// of `K_ii / unit_i` over the rows that have stiffness: every diagonal then of order one.
-fn scale_tangent(pattern: &Pattern, values: &mut [f64], unit: &[f64]) {
+/// The mean of `K_ii / unit_i` over the rows that have stiffness, from each row's
+/// `(K_ii, unit_i)`; 1 where none has.
+fn mean_stiffness(diagonal: impl Iterator<Item = (f64, f64)>) -> f64 {
     let (mut sum, mut count) = (0.0, 0usize);
-    for (dof, &slot) in pattern.diagonal.iter().enumerate() {
-        if values[slot] > 0.0 {
-            sum += values[slot] / unit[dof];
-            count += 1;
-        }
+    for (k, unit) in diagonal.filter(|&(k, _)| k > 0.0) {
+        sum += k / unit;
+        count += 1;
     }
-    let k = if count > 0 { sum / count as f64 } else { 1.0 };
-    let scale: Vec<f64> = unit.iter().map(|u| 1.0 / (k * u).sqrt()).collect();
+    if count > 0 {
+        sum / count as f64
+    } else {
+        1.0
+    }
+}
+
+/// Scale the tangent `values` in place to `S K S`, `S = diag(scale)`.
+fn scale_tangent(pattern: &crate::assembly::Pattern, values: &mut [f64], scale: &[f64]) {
     let symbolic = pattern.symbolic.as_ref();
     for (col, &s_col) in scale.iter().enumerate() {
         let range = symbolic.col_ptr()[col]..symbolic.col_ptr()[col + 1];
@@ -172,5 +183,61 @@ fn scale_tangent(pattern: &Pattern, values: &mut [f64], unit: &[f64]) {
         {
             *v *= scale[row] * s_col;
         }
+    }
+}
+
+/// The pivots below `-threshold` of an `L D L^T` of the small dense symmetric `matrix`, in
+/// its own order, a pivot within `threshold` of zero set to `+-threshold` as faer's sparse
+/// `L D L^T` sets it.
+fn dense_negative_pivots(mut matrix: Vec<Vec<f64>>, threshold: f64) -> usize {
+    let n = matrix.len();
+    let mut count = 0;
+    for j in 0..n {
+        let mut pivot = matrix[j][j];
+        if pivot.abs() <= threshold {
+            pivot = if pivot < 0.0 { -threshold } else { threshold };
+        }
+        count += usize::from(pivot < -threshold);
+        // What is left below and right of the pivot: its Schur complement.
+        let (upper, lower) = matrix.split_at_mut(j + 1);
+        let pivot_row = &upper[j][j + 1..];
+        for row in lower {
+            let l = row[j] / pivot;
+            for (v, p) in row[j + 1..].iter_mut().zip(pivot_row) {
+                *v -= l * p;
+            }
+        }
+    }
+    count
+}
+
+#[cfg(test)]
+mod tests {
+    use super::dense_negative_pivots;
+
+    #[test]
+    fn dense_pivots_count_the_negative_eigenvalues() {
+        // Eigenvalues 3, -1 (the matrix [[1, 2], [2, 1]]), then with a third row: 3, -1, -2.
+        assert_eq!(
+            dense_negative_pivots(vec![vec![1.0, 2.0], vec![2.0, 1.0]], 1e-8),
+            1
+        );
+        let m = vec![
+            vec![1.0, 2.0, 0.0],
+            vec![2.0, 1.0, 0.0],
+            vec![0.0, 0.0, -2.0],
+        ];
+        assert_eq!(dense_negative_pivots(m, 1e-8), 2);
+        // Singular: eigenvalues 2 and 0, the zero not counted.
+        assert_eq!(
+            dense_negative_pivots(vec![vec![1.0, 1.0], vec![1.0, 1.0]], 1e-8),
+            0
+        );
+        assert_eq!(dense_negative_pivots(Vec::new(), 1e-8), 0);
+        // A zero first pivot (eigenvalues 1 and -1) is taken as small and positive.
+        assert_eq!(
+            dense_negative_pivots(vec![vec![0.0, 1.0], vec![1.0, 0.0]], 1e-8),
+            1
+        );
     }
 }

@@ -71,9 +71,8 @@ pub struct SolverConfig {
     #[serde(default = "default_lambda_min")]
     pub lambda_min: f64,
     /// Count the negative pivots of an `L D L^T` of the symmetric tangent at each converged
-    /// increment (the stability indicator): one more numeric factorisation per increment, and
-    /// where walls are moved by displacement (freed for the count) one more symbolic analysis
-    /// whenever the pattern changes. Default on.
+    /// increment (the stability indicator): one more numeric factorisation per increment, in
+    /// the minimisation's pattern and analysis. Default on.
     #[serde(default = "yes")]
     pub stability_indicator: bool,
     /// The Cholesky's fill-reducing ordering: `"amd"` (faer's approximate minimum degree),

@@ -12,10 +12,9 @@
 //! matrix in the Cholesky pattern: by Sylvester's law of inertia, the number of negative
 //! eigenvalues. It is made in the storage of the `L L^T`, which is then gone: the stability
 //! indicator is taken once a minimisation has converged, and the next one factorises anew,
-//! so the two factors are never needed at once and only one is ever held. A second system
-//! (the stability indicator's, with its walls freed) can borrow that storage
-//! ([`LinearSolver::take_factor`], [`LinearSolver::give_factor`]), so that a run holds one
-//! factor's values in all.
+//! so the two factors are never needed at once and only one is ever held. The `L D L^T`
+//! then solves ([`LinearSolver::solve_ldlt_in_place`]) for the indicator's walls, freed
+//! (a Schur complement), so that a run holds one pattern, one analysis and one factor.
 
 use super::stats::{secs, SolverStats};
 use crate::assembly::value_index;
@@ -443,13 +442,25 @@ fn permute(
     (ordered, source)
 }
 
+/// What a solver's factor storage holds.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Factor {
+    /// Nothing to solve with.
+    Nothing,
+    /// The `L L^T` of the last [`LinearSolver::factorize`].
+    Llt,
+    /// The `L D L^T` of the last [`LinearSolver::negative_pivots`].
+    Ldlt,
+}
+
 /// A sparse Cholesky solver with its symbolic factorisation and buffers kept.
 pub struct LinearSolver {
     ordering: FillOrdering,
     par: Par,
     cholesky: Option<Box<Cholesky>>,
     scratch: MemBuffer,
-    factorized: bool,
+    /// What `factor` holds.
+    holds: Factor,
     /// The factor's values: the `L L^T` solved with, or the stability indicator's `L D L^T`.
     /// Sized when first factorised into.
     factor: Vec<f64>,
@@ -475,7 +486,7 @@ impl LinearSolver {
             par: Par::Seq,
             cholesky: None,
             scratch: MemBuffer::new(StackReq::EMPTY),
-            factorized: false,
+            holds: Factor::Nothing,
             factor: Vec::new(),
         }
     }
@@ -507,7 +518,7 @@ impl LinearSolver {
             ),
         ]));
         self.cholesky = Some(Box::new(c));
-        self.factorized = false;
+        self.holds = Factor::Nothing;
         stats.counters.symbolic_factorisations += 1;
         stats.timers.symbolic += secs(start);
         Ok(())
@@ -531,7 +542,7 @@ impl LinearSolver {
         stats: &mut SolverStats,
     ) -> Result<(), NotFactorizable> {
         let start = Instant::now();
-        self.factorized = false;
+        self.holds = Factor::Nothing;
         let Some(c) = &mut self.cholesky else {
             return Err(NotFactorizable("no symbolic factorisation".into()));
         };
@@ -551,27 +562,15 @@ impl LinearSolver {
         .map_err(|e| NotFactorizable(format!("{e:?}")));
         stats.counters.numeric_factorisations += 1;
         stats.timers.factorisation += secs(start);
-        self.factorized = result.is_ok();
+        if result.is_ok() {
+            self.holds = Factor::Llt;
+        }
         result
     }
 
     /// Forget the numeric factorisation (the symbolic one stays).
     pub fn invalidate(&mut self) {
-        self.factorized = false;
-    }
-
-    /// The factor's storage, for another solver to factorise into
-    /// ([`LinearSolver::give_factor`]); this one's factorisation is gone.
-    pub fn take_factor(&mut self) -> Vec<f64> {
-        self.factorized = false;
-        std::mem::take(&mut self.factor)
-    }
-
-    /// Storage to factorise into from now on, in place of the solver's own; its contents do
-    /// not matter.
-    pub fn give_factor(&mut self, storage: Vec<f64>) {
-        self.factorized = false;
-        self.factor = storage;
+        self.holds = Factor::Nothing;
     }
 
     /// Values the factor of the analysed pattern holds (its supernodes' dense blocks, padding
@@ -587,7 +586,7 @@ impl LinearSolver {
 
     /// Whether a factorisation is ready for solves.
     pub fn is_factorized(&self) -> bool {
-        self.factorized
+        self.holds == Factor::Llt
     }
 
     /// Solve `A x = b` in place (`rhs` holds `b` on entry and `x` on return).
@@ -613,7 +612,7 @@ impl LinearSolver {
     /// its pivots are of order one) below `-threshold`. Pivots within `threshold` of zero
     /// (rattlers, free rotations: a singular direction) are taken as zero and not counted.
     /// It takes the storage of the `L L^T`, which must be factorised anew before the next
-    /// solve.
+    /// solve; until then [`LinearSolver::solve_ldlt_in_place`] solves with it.
     pub fn negative_pivots(
         &mut self,
         matrix: SparseColMatRef<'_, usize, f64>,
@@ -621,7 +620,7 @@ impl LinearSolver {
         stats: &mut SolverStats,
     ) -> Result<usize, NotFactorizable> {
         let start = Instant::now();
-        self.factorized = false;
+        self.holds = Factor::Nothing;
         let Some(c) = &mut self.cholesky else {
             return Err(NotFactorizable("no symbolic factorisation".into()));
         };
@@ -646,6 +645,7 @@ impl LinearSolver {
         stats.counters.numeric_factorisations += 1;
         stats.timers.factorisation += secs(start);
         result.map_err(|e| NotFactorizable(format!("{e:?}")))?;
+        self.holds = Factor::Ldlt;
         // A supernode's diagonal block holds its pivots on its diagonal.
         let factor = SupernodalLdltRef::new(
             supernodes(&c.symbolic),
@@ -659,6 +659,45 @@ impl LinearSolver {
                     .count()
             })
             .sum())
+    }
+
+    /// Solve `A X = B` in place with the `L D L^T` of the last
+    /// [`LinearSolver::negative_pivots`], for the `columns` right-hand sides that `rhs` holds
+    /// one after another (`B` on entry, `X` on return): all at once, reading the factor once.
+    pub fn solve_ldlt_in_place(
+        &mut self,
+        rhs: &mut [f64],
+        columns: usize,
+        stats: &mut SolverStats,
+    ) -> Result<(), NotFactorizable> {
+        let (Some(c), Factor::Ldlt) = (&self.cholesky, self.holds) else {
+            return Err(NotFactorizable("no L D L^T to solve with".into()));
+        };
+        let start = Instant::now();
+        let n = c.work.len();
+        let (forward, inverse) = order(&c.symbolic);
+        let mut ordered = vec![0.0; n * columns];
+        for (o, b) in ordered.chunks_exact_mut(n).zip(rhs.chunks_exact(n)) {
+            for (v, &dof) in o.iter_mut().zip(forward) {
+                *v = b[dof];
+            }
+        }
+        let s = supernodes(&c.symbolic);
+        let mut scratch = MemBuffer::new(s.solve_in_place_scratch::<f64>(columns, self.par));
+        SupernodalLdltRef::new(s, &self.factor[..c.symbolic.len_val()]).solve_in_place_with_conj(
+            faer::Conj::No,
+            faer::MatMut::from_column_major_slice_mut(&mut ordered, n, columns),
+            self.par,
+            MemStack::new(&mut scratch),
+        );
+        for (x, o) in rhs.chunks_exact_mut(n).zip(ordered.chunks_exact(n)) {
+            for (v, &pivot) in x.iter_mut().zip(inverse) {
+                *v = o[pivot];
+            }
+        }
+        stats.counters.solves += columns;
+        stats.timers.solve += secs(start);
+        Ok(())
     }
 }
 
@@ -710,7 +749,47 @@ mod tests {
                 .unwrap();
             assert_eq!(counted, below, "grid {n} x {n} shifted by {shift}");
             assert!(below > 0 || shift == 0.0);
+            // The indefinite factor solves as well as it counts.
+            let b: Vec<f64> = (0..n * n).map(|i| (i % 7) as f64 - 3.0).collect();
+            let mut x = b.clone();
+            solver.solve_ldlt_in_place(&mut x, 1, &mut stats).unwrap();
+            let mut ax = vec![0.0; n * n];
+            for (j, xj) in x.iter().enumerate() {
+                for (i, v) in matrix.row_idx_of_col(j).zip(matrix.val_of_col(j)) {
+                    ax[i] += v * xj;
+                }
+            }
+            let misfit = ax
+                .iter()
+                .zip(&b)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max);
+            assert!(
+                misfit < 1e-9,
+                "grid {n} x {n} shifted by {shift}: {misfit:e}"
+            );
+            // Two right-hand sides at once, each as it is alone (to round-off).
+            let mut two: Vec<f64> = b.iter().chain(b.iter().rev()).copied().collect();
+            solver.solve_ldlt_in_place(&mut two, 2, &mut stats).unwrap();
+            let mut reversed: Vec<f64> = b.iter().rev().copied().collect();
+            solver
+                .solve_ldlt_in_place(&mut reversed, 1, &mut stats)
+                .unwrap();
+            let alone = x.iter().chain(&reversed);
+            let size = alone.clone().fold(0.0, |m: f64, v| m.max(v.abs()));
+            let apart = two.iter().zip(alone).map(|(a, b)| (a - b).abs());
+            let worst = apart.fold(0.0, f64::max);
+            assert!(worst <= 1e-10 * size, "{n} {shift}: {worst:e} of {size:e}");
         }
+        let mut solver = LinearSolver::new();
+        let (matrix, _) = shifted_laplacian(6, 0.0);
+        solver
+            .analyse(&matrix.symbolic().to_owned().unwrap(), &mut stats)
+            .unwrap();
+        solver.factorize(matrix.as_ref(), &mut stats).unwrap();
+        assert!(solver
+            .solve_ldlt_in_place(&mut [0.0; 36], 1, &mut stats)
+            .is_err());
     }
 
     #[test]
