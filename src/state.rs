@@ -5,6 +5,8 @@ use crate::contact::ContactSet;
 use crate::geometry::{GrainSet, Membrane, Side, WallSet};
 use crate::measure::Measurements;
 use crate::simulation::EnergyBalance;
+use std::ops::{Deref, DerefMut};
+use std::sync::Arc;
 
 /// Where a run stands: committed positions, wall states, contact history, and the place in
 /// the load program.
@@ -17,11 +19,11 @@ pub struct State {
     /// Increments completed within the current stage.
     pub stage_increment: usize,
     /// Grains at the last converged increment.
-    pub grains: GrainSet,
+    pub grains: Shared<GrainSet>,
     /// Walls at the last converged increment (positions, slides, applied stresses).
     pub walls: WallSet,
     /// Contacts and their committed history; bonds broken so far.
-    pub contacts: ContactSet,
+    pub contacts: Shared<ContactSet>,
     /// Membranes and their pressures (their chains are found anew each increment).
     pub membranes: Vec<Membrane>,
     /// Grain centres when the friends lists were last made: rebuilding the lists from them
@@ -36,6 +38,53 @@ pub struct State {
     /// [`crate::simulation::Simulation::take_out`]); their grains are those marked in
     /// [`GrainSet::taken_out`].
     pub breakouts: Vec<Breakout>,
+}
+
+/// A part of the state held once by all its copies until one of them changes it (copy on
+/// write). A run holds the state, the one its increment started from (to go back to), and
+/// the one its result file is being written from: most often all the same, and the grains'
+/// and contacts' vectors are most of a state's memory.
+#[derive(Debug, Default)]
+pub struct Shared<T>(Arc<T>);
+
+impl<T> Clone for Shared<T> {
+    /// Another holder of the same value: nothing is copied.
+    fn clone(&self) -> Self {
+        Shared(Arc::clone(&self.0))
+    }
+}
+
+impl<T> Deref for Shared<T> {
+    type Target = T;
+    fn deref(&self) -> &T {
+        &self.0
+    }
+}
+
+impl<T: Clone> DerefMut for Shared<T> {
+    /// The value to change, copied first if another holder has it too.
+    fn deref_mut(&mut self) -> &mut T {
+        Arc::make_mut(&mut self.0)
+    }
+}
+
+impl<T: Clone> Shared<T> {
+    /// The value, copied only if another holder has it too.
+    pub fn into_inner(self) -> T {
+        Arc::unwrap_or_clone(self.0)
+    }
+}
+
+impl<T: PartialEq> PartialEq for Shared<T> {
+    fn eq(&self, other: &Self) -> bool {
+        Arc::ptr_eq(&self.0, &other.0) || *self.0 == *other.0
+    }
+}
+
+impl<T> From<T> for Shared<T> {
+    fn from(value: T) -> Self {
+        Shared(Arc::new(value))
+    }
 }
 
 /// A cluster of grains that broke out of the sample and was taken out of it: the thesis's
@@ -175,9 +224,9 @@ impl State {
             friends_wall_reference: walls.walls.iter().map(|w| [w.position, w.slide]).collect(),
             last_step: Vec::new(),
             breakouts: Vec::new(),
-            grains,
+            grains: grains.into(),
             walls,
-            contacts,
+            contacts: contacts.into(),
             membranes,
         }
     }
@@ -254,7 +303,7 @@ mod tests {
             increment: 0,
             stage: 0,
             stage_increment: 0,
-            grains: GrainSet::new(vec![[0.0; 2]; 3], vec![1.0; 3]),
+            grains: GrainSet::new(vec![[0.0; 2]; 3], vec![1.0; 3]).into(),
             walls: WallSet {
                 walls: vec![wall("bottom"), wall("right"), wall("top")],
             },
@@ -266,7 +315,8 @@ mod tests {
                     contact(Side::Wall(2), 2),
                 ],
                 broken_bonds: Vec::new(),
-            },
+            }
+            .into(),
             friends_reference: vec![[0.0; 2]; 3],
             friends_wall_reference: vec![[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]],
             last_step: Vec::new(),

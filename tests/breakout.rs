@@ -334,7 +334,7 @@ fn a_grain_come_loose_at_the_borehole_breaks_out_and_one_in_a_pore_stays() {
         .unwrap();
     assert!(distance(inner) > distance(surface) + 4.0 * r);
     // Both made loose: bonds broken, touching nothing.
-    let set = &mut sim.state.contacts;
+    let set = &mut *sim.state.contacts;
     for &loose in &[surface, inner] {
         for c in &mut set.contacts {
             if c.bonded && (c.pair.b == loose || c.pair.a == Side::Grain(loose)) {

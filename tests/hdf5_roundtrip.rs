@@ -194,12 +194,13 @@ fn state(k: usize) -> State {
         stage: k / 2,
         stage_increment: k % 2,
         breakouts,
-        grains,
+        grains: grains.into(),
         walls,
         contacts: ContactSet {
             contacts,
             broken_bonds,
-        },
+        }
+        .into(),
         friends_reference: position,
         membranes: Vec::new(),
         friends_wall_reference: vec![[0.0, 0.0], [0.0, -1e-7], [1e-6, 0.0], [0.0, 0.0]],
@@ -554,7 +555,7 @@ fn empty_and_large_sets_work() {
     // No contacts, no walls, no friends lists yet.
     let path = dir.path().join("empty.h5");
     let mut s = state(0);
-    s.contacts = ContactSet::default();
+    s.contacts = ContactSet::default().into();
     s.walls = WallSet::default();
     s.friends_reference.clear();
     s.friends_wall_reference.clear();
@@ -575,7 +576,7 @@ fn empty_and_large_sets_work() {
         .map(|i| [i as f64 * 1.0001, (i % 7) as f64 / 3.0])
         .collect();
     let mut s = state(5);
-    s.grains = GrainSet::new(position.clone(), vec![0.5; n]);
+    s.grains = GrainSet::new(position.clone(), vec![0.5; n]).into();
     s.grains.rotation = (0..n).map(|i| (i as f64).sin() * 1e-3).collect();
     s.grains.taken_out[3] = true;
     s.contacts.contacts = (0..n - 1)

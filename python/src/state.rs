@@ -121,7 +121,7 @@ pub struct Walls {
 impl State {
     /// The Python state of `state` (taken over, not copied again).
     pub fn of(py: Python<'_>, state: grainstat::state::State) -> PyResult<State> {
-        let g = state.grains;
+        let g = state.grains.into_inner();
         let grains = Grains {
             position: array2(py, g.position).unbind(),
             radius: array1(py, g.radius).unbind(),

@@ -9,7 +9,7 @@ impl Simulation {
     /// Break the bond most past its strength, if any (method note, step 5): the one whose
     /// force is the largest multiple of what it can carry. Returns whether one broke.
     pub(super) fn break_most_overloaded_bond(&mut self) -> bool {
-        let set = &mut self.state.contacts;
+        let set = &mut *self.state.contacts;
         let worst = set
             .contacts
             .iter()

@@ -69,7 +69,7 @@ impl Simulation {
         let ContactSet {
             contacts,
             broken_bonds,
-        } = &mut self.state.contacts;
+        } = &mut *self.state.contacts;
         let (mut bonds_broken, mut carried_away) = (0, 0.0);
         contacts.retain(|c| {
             let a_out = matches!(c.pair.a, Side::Grain(a) if out[a]);

@@ -8,7 +8,7 @@ use super::bonds::{bracketing_cuts, first_crossing};
 use super::{anchors, EnergyBalance, LoadStep, Simulation, CHAIN_CHANGES};
 use crate::contact::{ContactSet, Lag};
 use crate::solver::minimise::{self, MinimiseSettings, Potential, SystemMatrix};
-use crate::state::{IncrementReport, PeakState, State};
+use crate::state::{IncrementReport, PeakState, Shared, State};
 use crate::NumericError;
 use std::sync::Arc;
 
@@ -633,7 +633,7 @@ impl Simulation {
 /// the residual the minimisation reached there with its history.
 struct Dropped {
     u: Vec<f64>,
-    contacts: ContactSet,
+    contacts: Shared<ContactSet>,
     energy: EnergyBalance,
     bonds_broken: usize,
     residual: f64,

@@ -143,7 +143,7 @@ impl Simulation {
         // round-off level would otherwise flip contacts on and off from pass to pass. A
         // linear contact kept in between carries at most k * chatter, a Hertz one nothing.
         let chatter = CHATTER * self.r_mean;
-        let set = &mut self.state.contacts;
+        let set = &mut *self.state.contacts;
         for c in set.contacts.iter_mut().filter(|_| settled) {
             if let Some(mode) = c.bond_failure() {
                 self.energy.bonds_released += super::energy::bond_energy(self.law.as_ref(), c);

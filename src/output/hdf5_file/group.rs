@@ -273,12 +273,13 @@ pub(super) fn read_group_state(g: &Group, h: &RunHeader) -> R<State> {
         increment: get_count(g, "increment")?,
         stage: get_count(g, "stage")?,
         stage_increment: get_count(g, "stage_increment")?,
-        grains,
+        grains: grains.into(),
         walls: WallSet { walls },
         contacts: ContactSet {
             contacts,
             broken_bonds,
-        },
+        }
+        .into(),
         friends_reference: read_rows::<f64, 2>(&friends, "reference", None)?,
         friends_wall_reference: read_rows::<f64, 2>(&friends, "wall_reference", None)?,
         last_step: if g.link_exists("last_step") {
