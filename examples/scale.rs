@@ -1,8 +1,10 @@
 //! How time and memory grow with the number of grains: one sandstone crystal per size
 //! (`samples::crystal_of_about`, table 8, between four walls), set up, then its first load
 //! increment and a short run of three more, each size in a process of its own so that its peak
-//! memory is its own. Prints two markdown tables: time and memory by size, and where the time
-//! of the four increments went, stage by stage, beside the time of one factorisation.
+//! memory is its own. Prints three markdown tables: time and memory by size, where the time
+//! of the four increments went, stage by stage, beside the time of one factorisation, and
+//! what the simulation holds at the end by part (`Simulation::memory_by_part`) beside the
+//! process's peak.
 //!
 //!     cargo run --release --example scale -- 1000 10000 100000 1000000
 //!     cargo run --release --example scale -- --threads 2 10000 100000
@@ -18,6 +20,9 @@ use grainstat::solver::{FillOrdering, SolverConfig};
 use std::path::Path;
 use std::process::Command;
 use std::time::Instant;
+
+/// Bytes in a MB, as the peak memory is counted (`VmHWM`'s kB over 1024).
+const MB: f64 = 1024.0 * 1024.0;
 
 /// Increments of the short run after the first.
 const SHORT_RUN: usize = 3;
@@ -46,8 +51,8 @@ fn main() {
             .num_threads(threads.max(1))
             .build()
             .expect("the thread pool");
-        let (size, stages) = pool.install(|| measure(grains, threads, fill));
-        println!("{size}\n{stages}");
+        let (size, stages, parts) = pool.install(|| measure(grains, threads, fill));
+        println!("{size}\n{stages}\n{parts}");
         return;
     }
     let sizes: Vec<usize> = if args.is_empty() {
@@ -59,7 +64,7 @@ fn main() {
         }
     };
     let me = std::env::current_exe().expect("the example's own path");
-    let mut rows = Vec::new();
+    let (mut rows, mut parts) = (Vec::new(), Vec::new());
     for grains in sizes {
         let out = Command::new(&me)
             .args([
@@ -85,6 +90,7 @@ fn main() {
             lines.next().unwrap_or_default(),
             lines.next().unwrap_or_default(),
         ));
+        parts.push((grains, lines.next().unwrap_or_default()));
     }
     println!(
         "| grains | unknowns | contacts | factor entries | set-up (s) | first increment (s) | \
@@ -105,6 +111,36 @@ fn main() {
     for (_, stages) in &rows {
         println!("{stages}");
     }
+    println!();
+    print_parts(&parts);
+}
+
+/// The table of what each size's simulation held at the end, by part: MB and bytes a grain,
+/// from the `name=bytes;...` lines of [`measure`] (the grains, then the parts, then the peak).
+fn print_parts(sizes: &[(usize, String)]) {
+    let parsed: Vec<Vec<(String, f64)>> = sizes
+        .iter()
+        .map(|(_, line)| {
+            line.split(';')
+                .filter_map(|item| item.split_once('='))
+                .map(|(name, v)| (name.to_string(), v.parse().unwrap_or(f64::NAN)))
+                .collect()
+        })
+        .collect();
+    let Some(first) = parsed.first() else { return };
+    let header: Vec<String> = sizes.iter().map(|(g, _)| format!("about {g}")).collect();
+    println!("| part | {} |", header.join(" | "));
+    println!("|---|{}", "---|".repeat(sizes.len()));
+    for (k, (name, _)) in first.iter().enumerate().skip(1) {
+        let cells: Vec<String> = parsed
+            .iter()
+            .map(|p| {
+                let (grains, bytes) = (p[0].1, p[k].1);
+                format!("{:.1} MB, {:.0} B a grain", bytes / MB, bytes / grains)
+            })
+            .collect();
+        println!("| {name} | {} |", cells.join(" | "));
+    }
 }
 
 fn usage() -> ! {
@@ -115,8 +151,10 @@ fn usage() -> ! {
 }
 
 /// The two table rows for the crystal of about `grains` grains
-/// ([`samples::crystal_of_about`]), run on `threads` threads with the Cholesky in `ordering`.
-fn measure(grains: usize, threads: usize, ordering: FillOrdering) -> (String, String) {
+/// ([`samples::crystal_of_about`]), run on `threads` threads with the Cholesky in `ordering`,
+/// and what its simulation holds at the end by part, with their sum and the peak, as
+/// `name=bytes;...` after the grains.
+fn measure(grains: usize, threads: usize, ordering: FillOrdering) -> (String, String, String) {
     let scene = samples::crystal_of_about(grains);
     let start = Instant::now();
     let built = build_grains(&scene.grains, Path::new("."), "scale").expect("crystal");
@@ -166,7 +204,17 @@ fn measure(grains: usize, threads: usize, ordering: FillOrdering) -> (String, St
         whole / increments,
         whole / increments / one_factorisation,
     );
-    (size, stages)
+    let by_part = sim.memory_by_part();
+    let held: usize = by_part.iter().map(|(_, b)| b).sum();
+    let mut parts = format!("grains={};", sim.state.grains.len());
+    for (name, bytes) in by_part {
+        parts += &format!("{name}={bytes};");
+    }
+    parts += &format!(
+        "all these={held};the process's peak={:.0}",
+        peak_memory_mb() * MB
+    );
+    (size, stages, parts)
 }
 
 /// The process's peak resident memory (`VmHWM`), in MB; NaN where /proc does not say.

@@ -431,6 +431,23 @@ impl Pattern {
             .all(|(a, b)| self.links(dofs, a, b))
     }
 
+    /// Bytes it holds: its structure (column pointers, rows, diagonal, order by rows,
+    /// couplings, chain links), and the value slots of each pair's block.
+    pub fn heap_bytes(&self) -> (usize, usize) {
+        let word = std::mem::size_of::<usize>();
+        let structure = word
+            * (self.symbolic.col_ptr().len()
+                + self.symbolic.row_idx().len()
+                + self.diagonal.capacity()
+                + 3 * self.couplings.capacity()
+                + 2 * self.chain_links.capacity())
+            + 4 * self.row_order.capacity();
+        (
+            structure,
+            4 * self.slots.capacity() + word * self.start.capacity(),
+        )
+    }
+
     /// Number of stored entries.
     pub fn nnz(&self) -> usize {
         self.symbolic.row_idx().len()

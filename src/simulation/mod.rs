@@ -192,6 +192,53 @@ impl Simulation {
         self.linear.factor_entries()
     }
 
+    /// The bytes the simulation holds now, by part, from the lengths of what it holds (the
+    /// vectors' capacities times their elements' sizes). Copies of the state held elsewhere
+    /// (an increment's start, the result file's writer) and faer's scratch are not counted.
+    pub fn memory_by_part(&self) -> Vec<(&'static str, usize)> {
+        let (g, c) = (&*self.state.grains, &*self.state.contacts);
+        let grains = [
+            g.position.heap_bytes(),
+            g.origin.heap_bytes(),
+            g.displacement.heap_bytes(),
+            g.rotation.heap_bytes(),
+            g.radius.heap_bytes(),
+            g.taken_out.heap_bytes(),
+            self.state.friends_reference.heap_bytes(),
+            self.state.last_step.heap_bytes(),
+        ];
+        let contacts = c.contacts.heap_bytes() + c.broken_bonds.heap_bytes();
+        let kinematics = self.kin.heap_bytes() + self.pair_index.heap_bytes();
+        let f = &self.friends;
+        let friends = f.pairs.heap_bytes() + f.reference.heap_bytes() + f.held.heap_bytes();
+        let (structure, slots) = self.pattern.heap_bytes();
+        let (analysis, factor) = self.linear.heap_bytes();
+        let q = &self.q;
+        let chains: usize = self.chains.iter().map(|c| c.grains.heap_bytes()).sum();
+        let rest = self.dofs.glue.heap_bytes()
+            + self.dofs.taken_out.heap_bytes()
+            + q.position.heap_bytes()
+            + q.displacement.heap_bytes()
+            + q.rotation.heap_bytes()
+            + self.carriers.heap_bytes()
+            + self.loose.heap_bytes()
+            + self.anchors.heap_bytes()
+            + chains;
+        vec![
+            ("grains (the state's)", grains.iter().sum()),
+            ("contacts and broken bonds (the state's)", contacts),
+            ("contacts' kinematics and pair index", kinematics),
+            ("friends lists", friends),
+            ("pattern: structure and order by rows", structure),
+            ("pattern: each pair's value slots", slots),
+            ("Hessian's values", self.values.heap_bytes()),
+            ("Cholesky analysis", analysis),
+            ("factor's values", factor),
+            ("minimisation's vectors", self.minimise_work.heap_bytes()),
+            ("unknowns' map, configuration, chains", rest),
+        ]
+    }
+
     /// Make the workspace the one a run resumed from the committed state starts with
     /// ([`Simulation::from_state`]), and drop the numeric factorisation. Called when the state
     /// is written, so that a run resumed from there repeats the same arithmetic. The running
@@ -755,3 +802,14 @@ fn friends_around(grains: &GrainSet, walls: &WallSet, skin: f64, required: &[Pai
 
 #[cfg(test)]
 mod tests;
+
+/// Bytes a vector holds on the heap.
+trait HeapBytes {
+    fn heap_bytes(&self) -> usize;
+}
+
+impl<T> HeapBytes for Vec<T> {
+    fn heap_bytes(&self) -> usize {
+        self.capacity() * std::mem::size_of::<T>()
+    }
+}

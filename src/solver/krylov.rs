@@ -74,6 +74,16 @@ pub struct Gmres {
 }
 
 impl Gmres {
+    /// Bytes its buffers hold.
+    pub fn heap_bytes(&self) -> usize {
+        let vectors = self.basis.iter().chain(&self.hessenberg);
+        let nested = vectors.map(|v| v.capacity()).sum::<usize>();
+        let flat = self.g.capacity() + self.y.capacity() + self.z.capacity() + self.w.capacity();
+        8 * (nested + flat)
+            + std::mem::size_of::<Vec<f64>>() * (self.basis.capacity() + self.hessenberg.capacity())
+            + 16 * self.rotations.capacity()
+    }
+
     /// Solve `A x = b` by GMRES from `x = 0`, with `precondition` applying `M^-1` in place
     /// (right preconditioning, so the residual it measures is the true `|b - A x|`). Returns
     /// the iterations taken once `|b - A x| <= tolerance |b|`, or `None` after

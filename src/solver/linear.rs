@@ -579,6 +579,32 @@ impl LinearSolver {
         self.cholesky.as_ref().map_or(0, |c| c.symbolic.len_val())
     }
 
+    /// Bytes it holds: the analysis (the matrix in its order, its map and values, the
+    /// symbolic factor and its order, the work vectors), and the factor's values. The
+    /// factorisation's scratch is not counted: faer reserves it, and touches what the
+    /// largest supernode needs.
+    pub fn heap_bytes(&self) -> (usize, usize) {
+        let factor = 8 * self.factor.capacity();
+        let Some(c) = &self.cholesky else {
+            return (0, factor);
+        };
+        let word = std::mem::size_of::<usize>();
+        let s = supernodes(&c.symbolic);
+        let symbolic = s.supernode_begin().len()
+            + s.supernode_end().len()
+            + s.col_ptr_for_row_idx().len()
+            + s.col_ptr_for_val().len()
+            + s.row_idx().len()
+            + 2 * c.work.len();
+        let ordered = c.ordered.col_ptr().len() + c.ordered.row_idx().len();
+        let vectors =
+            c.values.capacity() + c.work.capacity() + c.below.capacity() + c.column_dots.capacity();
+        let analysis = word * (symbolic + ordered + c.diagonal.capacity())
+            + 4 * c.source.capacity()
+            + 8 * vectors;
+        (analysis, factor)
+    }
+
     /// Whether a pattern has been analysed.
     pub fn is_analysed(&self) -> bool {
         self.cholesky.is_some()

@@ -64,6 +64,21 @@ impl MinimiseWork {
     pub fn release_pattern_sized(&mut self) {
         self.consistent = Vec::new();
     }
+
+    /// Bytes its vectors hold.
+    pub fn heap_bytes(&self) -> usize {
+        let vectors = [
+            &self.residual,
+            &self.trial_residual,
+            &self.du,
+            &self.trial_u,
+            &self.loads,
+            &self.shift,
+            &self.regularised,
+            &self.consistent,
+        ];
+        8 * vectors.iter().map(|v| v.capacity()).sum::<usize>() + self.gmres.heap_bytes()
+    }
 }
 
 /// An incremental potential `Pi(u)` with its gradient and projected Hessian in a fixed
