@@ -30,6 +30,8 @@ impl Simulation {
         if !self.config.stability_indicator {
             return None;
         }
+        // The unknowns with the freed walls' after the minimisation's own, glued grains
+        // following their walls in this step.
         let mut freed = self.dofs.clone();
         for wall in &mut freed.wall {
             if wall.is_none() {
@@ -37,6 +39,7 @@ impl Simulation {
                 freed.len += 1;
             }
         }
+        freed.follow(&self.state.grains, &self.state.walls, &step.turn);
         // The consistent tangent's storage, free between minimisations, holds the tangent.
         let pattern = Arc::clone(&self.pattern);
         let mut values = std::mem::take(&mut self.minimise_work.consistent);
