@@ -16,6 +16,14 @@
 //! then solves ([`LinearSolver::solve_ldlt_in_place`]) for the indicator's walls, freed
 //! (a Schur complement), so that a run holds one pattern, one analysis and one factor.
 
+mod ordering;
+mod supernodal_solve;
+
+pub use ordering::{FillOrdering, METIS_UNKNOWNS};
+
+use ordering::nested_dissection;
+use supernodal_solve::solve_llt;
+
 use super::stats::{secs, SolverStats};
 use crate::assembly::value_index;
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
@@ -35,29 +43,7 @@ use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::utils::{permute_self_adjoint_scratch, permute_self_adjoint_to_unsorted};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
 use faer::{Par, Side};
-use serde::{Deserialize, Serialize};
 use std::time::Instant;
-
-/// The fill-reducing ordering of the Cholesky's unknowns.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum FillOrdering {
-    /// AMD below [`METIS_UNKNOWNS`] unknowns, METIS from there.
-    #[default]
-    Auto,
-    /// faer's approximate minimum degree.
-    Amd,
-    /// METIS's multilevel nested dissection of the unknowns' graph.
-    Metis,
-}
-
-/// Unknowns from which [`FillOrdering::Auto`] takes METIS. Measured on one thread
-/// (docs/performance.md, "The crystal against a prepared sample, and the ordering"): a
-/// million-grain crystal (3 million unknowns) factorises in 16.9 s in METIS's order against
-/// 21.7 s in AMD's, and its four increments take 6% less for all that METIS's analysis takes
-/// three times AMD's; at 100,000 grains (300,000 unknowns) the factorisation gains 7% and
-/// the run nothing, and below that neither.
-pub const METIS_UNKNOWNS: usize = 1_000_000;
 
 /// The factorisation could not be made (a non-positive pivot, or a singular matrix).
 #[derive(Debug, Clone, PartialEq)]
@@ -112,24 +98,20 @@ impl Cholesky {
             FillOrdering::Amd => false,
             FillOrdering::Metis => true,
         };
-        let symbolic = if metis {
-            let (fwd, inv) = nested_dissection(pattern)?;
-            factorize_symbolic_cholesky(
-                pattern.as_ref(),
-                Side::Lower,
-                SymmetricOrdering::Custom(PermRef::new_checked(&fwd, &inv, fwd.len())),
-                params,
-            )
-            .map_err(faer_error)?
+        let dissected = if metis {
+            Some(nested_dissection(pattern)?)
         } else {
-            factorize_symbolic_cholesky(
-                pattern.as_ref(),
-                Side::Lower,
-                SymmetricOrdering::Amd,
-                params,
-            )
-            .map_err(faer_error)?
+            None
         };
+        let pivot_order = match &dissected {
+            Some((fwd, inv)) => {
+                SymmetricOrdering::Custom(PermRef::new_checked(fwd, inv, fwd.len()))
+            }
+            None => SymmetricOrdering::Amd,
+        };
+        let symbolic =
+            factorize_symbolic_cholesky(pattern.as_ref(), Side::Lower, pivot_order, params)
+                .map_err(faer_error)?;
         let perm = symbolic.perm().expect("an ordering");
         let (ordered, source) = permute(pattern, perm);
         let n = pattern.nrows();
@@ -165,243 +147,11 @@ impl Cholesky {
     }
 }
 
-/// METIS's nested dissection of the graph of `pattern` (both triangles stored), with its
-/// default options (a fixed seed: the same order every run): the unknown of each pivot, and
-/// the pivot of each unknown.
-fn nested_dissection(
-    pattern: &SymbolicSparseColMat<usize>,
-) -> Result<(Vec<usize>, Vec<usize>), NotFactorizable> {
-    let n = pattern.nrows();
-    if pattern.row_idx().len() > metis_sys::idx_t::MAX as usize {
-        return Err(NotFactorizable(
-            "the pattern has more entries than METIS's 32-bit indices hold".into(),
-        ));
-    }
-    let mut xadj: Vec<metis_sys::idx_t> = Vec::with_capacity(n + 1);
-    let mut adjncy: Vec<metis_sys::idx_t> = Vec::with_capacity(pattern.row_idx().len());
-    xadj.push(0);
-    for j in 0..n {
-        adjncy.extend(
-            pattern
-                .row_idx_of_col(j)
-                .filter(|&i| i != j)
-                .map(|i| i as metis_sys::idx_t),
-        );
-        xadj.push(adjncy.len() as metis_sys::idx_t);
-    }
-    let mut options = [0; metis_sys::METIS_NOPTIONS as usize];
-    let mut nvtxs = n as metis_sys::idx_t;
-    let (mut perm, mut iperm) = (vec![0; n], vec![0; n]);
-    // METIS draws from the C library's one random sequence, which it seeds at each call: two
-    // calls at once on two threads would draw from each other's, and their orders would
-    // depend on the timing.
-    static METIS: std::sync::Mutex<()> = std::sync::Mutex::new(());
-    let _alone = METIS.lock().unwrap_or_else(|e| e.into_inner());
-    // SAFETY: xadj and adjncy are a valid graph of n vertices (a symmetric pattern without
-    // its diagonal); options, perm and iperm have the sizes METIS writes.
-    let status = unsafe {
-        metis_sys::METIS_SetDefaultOptions(options.as_mut_ptr());
-        metis_sys::METIS_NodeND(
-            &mut nvtxs,
-            xadj.as_mut_ptr(),
-            adjncy.as_mut_ptr(),
-            std::ptr::null_mut(),
-            options.as_mut_ptr(),
-            perm.as_mut_ptr(),
-            iperm.as_mut_ptr(),
-        )
-    };
-    match status {
-        metis_sys::rstatus_et_METIS_OK => {}
-        metis_sys::rstatus_et_METIS_ERROR_MEMORY => {
-            return Err(NotFactorizable("METIS ran out of memory".into()))
-        }
-        status => return Err(NotFactorizable(format!("METIS_NodeND failed ({status})"))),
-    }
-    let fwd: Vec<usize> = perm.iter().map(|&k| k as usize).collect();
-    let inv: Vec<usize> = iperm.iter().map(|&k| k as usize).collect();
-    Ok(postordered(pattern, &fwd, &inv))
-}
-
-/// The order `fwd` (the unknown of each pivot; `inv` its inverse) renumbered in a postorder
-/// of its elimination tree, which gives the same factor: each subtree's pivots then come
-/// together, so that chains of columns with the same pattern make the supernodes. AMD's
-/// order comes postordered; METIS's leaves do not.
-fn postordered(
-    pattern: &SymbolicSparseColMat<usize>,
-    fwd: &[usize],
-    inv: &[usize],
-) -> (Vec<usize>, Vec<usize>) {
-    const NONE: usize = usize::MAX;
-    let n = fwd.len();
-    // The elimination tree of the ordered matrix (Liu's algorithm, ancestors compressed).
-    let (mut parent, mut ancestor) = (vec![NONE; n], vec![NONE; n]);
-    for (k, &j) in fwd.iter().enumerate() {
-        for i in pattern.row_idx_of_col(j).map(|i| inv[i]).filter(|&i| i < k) {
-            let mut r = i;
-            while ancestor[r] != NONE && ancestor[r] != k {
-                let next = ancestor[r];
-                ancestor[r] = k;
-                r = next;
-            }
-            if ancestor[r] == NONE {
-                ancestor[r] = k;
-                parent[r] = k;
-            }
-        }
-    }
-    // Children in increasing order, then a depth-first postorder from the roots.
-    let (mut first_child, mut next_sibling) = (vec![NONE; n], vec![NONE; n]);
-    for k in (0..n).rev() {
-        if parent[k] != NONE {
-            next_sibling[k] = first_child[parent[k]];
-            first_child[parent[k]] = k;
-        }
-    }
-    let mut post = Vec::with_capacity(n);
-    let mut stack = Vec::new();
-    for root in (0..n).filter(|&k| parent[k] == NONE) {
-        stack.push(root);
-        while let Some(&top) = stack.last() {
-            let child = first_child[top];
-            if child == NONE {
-                post.push(top);
-                stack.pop();
-            } else {
-                first_child[top] = next_sibling[child];
-                stack.push(child);
-            }
-        }
-    }
-    let fwd: Vec<usize> = post.iter().map(|&k| fwd[k]).collect();
-    let mut inv = vec![0; n];
-    for (k, &j) in fwd.iter().enumerate() {
-        inv[j] = k;
-    }
-    (fwd, inv)
-}
-
 /// The supernodes of a Cholesky analysed in supernodes.
 fn supernodes(symbolic: &SymbolicCholesky<usize>) -> &SymbolicSupernodalCholesky<usize> {
     match symbolic.raw() {
         SymbolicCholeskyRaw::Supernodal(s) => s,
         SymbolicCholeskyRaw::Simplicial(_) => unreachable!("analysed in supernodes"),
-    }
-}
-
-/// Solve `L L^T x = b` in place on the supernodal factor `l`, supernode by supernode: a
-/// dense triangular solve of its diagonal block and a matrix-vector product with the rows
-/// below it, scattered to (forward) or gathered from (backward) the rows of its pattern.
-/// With one right-hand side this is bound by reading `L` once each way; faer's own solve
-/// calls its dense kernels once per supernode, which costs more than the arithmetic where
-/// supernodes are small (0.11 against 0.16 ms a solve on the 1,000-grain sand biaxial,
-/// docs/minimise.md, "Per-iteration cost"). Sequential at every size. Backward, the
-/// columns' products with the rows below are summed four columns at a time, each sum in the
-/// order one column alone makes it (the same values to the last bit), so that the four sums
-/// overlap instead of waiting on each other's additions.
-fn solve_llt(
-    symbolic: &SymbolicSupernodalCholesky<usize>,
-    l: &[f64],
-    x: &mut [f64],
-    (below, dots): (&mut Vec<f64>, &mut Vec<f64>),
-) {
-    let (begin, end) = (symbolic.supernode_begin(), symbolic.supernode_end());
-    let (row_ptr, val_ptr, rows) = (
-        symbolic.col_ptr_for_row_idx(),
-        symbolic.col_ptr_for_val(),
-        symbolic.row_idx(),
-    );
-    // Supernode `s`: its columns `start..start + size`, its column-major block of `height`
-    // rows (the diagonal block, then the rows of `pattern`).
-    let block = |s: usize| {
-        let (start, size) = (begin[s], end[s] - begin[s]);
-        let values = &l[val_ptr[s]..val_ptr[s + 1]];
-        let height = values.len() / size;
-        let pattern = &rows[row_ptr[s]..row_ptr[s] + height - size];
-        (start, size, height, values, pattern)
-    };
-    for s in 0..symbolic.n_supernodes() {
-        let (start, size, height, values, pattern) = block(s);
-        below.clear();
-        below.resize(pattern.len(), 0.0);
-        for j in 0..size {
-            let column = &values[j * height..(j + 1) * height];
-            let xj = x[start + j] / column[j];
-            x[start + j] = xj;
-            for (xi, lij) in x[start + j + 1..start + size]
-                .iter_mut()
-                .zip(&column[j + 1..size])
-            {
-                *xi -= lij * xj;
-            }
-            for (b, lij) in below.iter_mut().zip(&column[size..]) {
-                *b += lij * xj;
-            }
-        }
-        for (&i, b) in pattern.iter().zip(below.iter()) {
-            x[i] -= b;
-        }
-    }
-    for s in (0..symbolic.n_supernodes()).rev() {
-        let (start, size, height, values, pattern) = block(s);
-        below.clear();
-        below.extend(pattern.iter().map(|&i| x[i]));
-        dots.clear();
-        let below_of = |j: usize| &values[j * height + size..(j + 1) * height];
-        let mut j = 0;
-        while j + 4 <= size {
-            // Started from -0.0, as `Iterator::sum` starts.
-            let mut sums = [-0.0f64; 4];
-            let columns = (
-                below_of(j),
-                below_of(j + 1),
-                below_of(j + 2),
-                below_of(j + 3),
-            );
-            let rows = columns
-                .0
-                .iter()
-                .zip(columns.1)
-                .zip(columns.2)
-                .zip(columns.3);
-            for ((((l0, l1), l2), l3), b) in rows.zip(below.iter()) {
-                sums[0] += l0 * b;
-                sums[1] += l1 * b;
-                sums[2] += l2 * b;
-                sums[3] += l3 * b;
-            }
-            dots.extend(sums);
-            j += 4;
-        }
-        while j + 2 <= size {
-            let mut sums = [-0.0f64; 2];
-            for ((l0, l1), b) in below_of(j).iter().zip(below_of(j + 1)).zip(below.iter()) {
-                sums[0] += l0 * b;
-                sums[1] += l1 * b;
-            }
-            dots.extend(sums);
-            j += 2;
-        }
-        if j < size {
-            dots.push(
-                below_of(j)
-                    .iter()
-                    .zip(below.iter())
-                    .map(|(l, b)| l * b)
-                    .sum(),
-            );
-        }
-        for j in (0..size).rev() {
-            let column = &values[j * height..(j + 1) * height];
-            let mut sum = x[start + j];
-            sum -= dots[j];
-            sum -= column[j + 1..size]
-                .iter()
-                .zip(&x[start + j + 1..start + size])
-                .map(|(lij, xi)| lij * xi)
-                .sum::<f64>();
-            x[start + j] = sum / column[j];
-        }
     }
 }
 
@@ -728,7 +478,7 @@ impl LinearSolver {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use faer::sparse::{SparseColMat, Triplet};
     use faer::{Conj, MatMut};
@@ -736,7 +486,7 @@ mod tests {
     /// The Dirichlet Laplacian of an `n` x `n` grid shifted by `-shift` (full storage), and
     /// how many of its eigenvalues, `4 - 2 cos(i pi / (n + 1)) - 2 cos(j pi / (n + 1))`, are
     /// below the shift.
-    fn shifted_laplacian(n: usize, shift: f64) -> (SparseColMat<usize, f64>, usize) {
+    pub(super) fn shifted_laplacian(n: usize, shift: f64) -> (SparseColMat<usize, f64>, usize) {
         let index = |i: usize, j: usize| i * n + j;
         let mut entries = Vec::new();
         for i in 0..n {
@@ -816,53 +566,6 @@ mod tests {
         assert!(solver
             .solve_ldlt_in_place(&mut [0.0; 36], 1, &mut stats)
             .is_err());
-    }
-
-    #[test]
-    fn metis_order_is_a_postorder_of_its_elimination_tree() {
-        let (matrix, _) = shifted_laplacian(40, 0.0);
-        let pattern = matrix.symbolic().to_owned().unwrap();
-        let (fwd, inv) = nested_dissection(&pattern).unwrap();
-        let n = fwd.len();
-        assert!((0..n).all(|j| fwd[inv[j]] == j), "a permutation");
-        assert_eq!(
-            nested_dissection(&pattern).unwrap(),
-            (fwd.clone(), inv.clone())
-        );
-        // In a postorder each pivot's parent (its first later neighbour in the factor) comes
-        // later, and each subtree is a run of pivots ending at its root: a pivot's
-        // descendants are the pivots just before it.
-        let mut parent = vec![usize::MAX; n];
-        let mut ancestor: Vec<usize> = (0..n).collect();
-        let root = |ancestor: &mut Vec<usize>, mut r: usize| {
-            while ancestor[r] != r {
-                r = ancestor[r];
-            }
-            r
-        };
-        for (k, &j) in fwd.iter().enumerate() {
-            for i in pattern.row_idx_of_col(j).map(|i| inv[i]).filter(|&i| i < k) {
-                let r = root(&mut ancestor, i);
-                if r != k {
-                    parent[r] = k;
-                    ancestor[r] = k;
-                }
-            }
-        }
-        let mut first_descendant: Vec<usize> = (0..n).collect();
-        for k in 0..n {
-            if parent[k] != usize::MAX {
-                assert!(parent[k] > k);
-                first_descendant[parent[k]] = first_descendant[parent[k]].min(first_descendant[k]);
-            }
-        }
-        let mut size = vec![1usize; n];
-        for k in 0..n {
-            if parent[k] != usize::MAX {
-                size[parent[k]] += size[k];
-            }
-        }
-        assert!((0..n).all(|k| first_descendant[k] + size[k] == k + 1));
     }
 
     #[test]
