@@ -543,7 +543,7 @@ impl Simulation {
             tolerance: self.config.tolerance,
             lambda_min: self.config.lambda_min,
             max_iterations: self.config.max_iterations,
-            lambda_start: None,
+            lambda_start: minimise::start_factor(self.state.grains.len()),
         };
         // Chain changes are counted over the passes: a chain that flips between two grains
         // makes a pattern that couples one and not the other, and would end every pass.
@@ -577,7 +577,11 @@ impl Simulation {
             self.linear = linear;
             self.minimise_work = work;
             let outcome = result?;
-            settings.lambda_start = outcome.at_reach.then_some(outcome.lambda);
+            settings.lambda_start = if outcome.at_reach {
+                outcome.lambda
+            } else {
+                minimise::start_factor(self.state.grains.len())
+            };
             report.newton_iterations += outcome.iterations;
             report.residual = outcome.residual;
             worst_grain = outcome.worst_grain;

@@ -180,10 +180,11 @@ pub struct MinimiseSettings {
     pub lambda_min: f64,
     /// Iterations allowed.
     pub max_iterations: usize,
-    /// Levenberg-Marquardt factor to start from, where this minimisation goes on from one
-    /// that stopped at the edge of the friends lists: the potential is the same, and so is
-    /// how far its Newton model holds (none: the factor every minimisation starts with).
-    pub lambda_start: Option<f64>,
+    /// Levenberg-Marquardt factor to start from: [`start_factor`] of the sample, or where this
+    /// minimisation goes on from one that stopped at the edge of the friends lists, the
+    /// factor that one ended with (the potential is the same, and so is how far its Newton
+    /// model holds).
+    pub lambda_start: f64,
 }
 
 /// How a minimisation ended.
@@ -233,8 +234,20 @@ const FLOPPY_ROTATION: f64 = 1e-2;
 
 /// Levenberg-Marquardt factor a minimisation starts with: soft modes (a grain perched on
 /// contacts that slide, a pair of grains hanging together) then move a bounded way until
-/// full steps have brought it down.
+/// full steps have brought it down. Capped by [`start_factor`] in large samples.
 const LAMBDA_START: f64 = 1e-4;
+
+/// The Levenberg-Marquardt factor a minimisation of a sample of `grains` grains starts with:
+/// 1e-4 (`LAMBDA_START`), but no more than `1 / grains`. The factor shifts every row by its
+/// share of the mean stiffness, which damps the sample's own softest modes as much as the
+/// loose grains it is meant for: the longest wave across `n` grains has some `(pi / n)^2` of
+/// a grain's stiffness, about `10 / grains`. Kept a tenth below that, the start leaves the
+/// load's response to the first step: every sample up to 10,000 grains starts at 1e-4, a
+/// million-grain one at 1e-6 (docs/minimise.md, "The Levenberg-Marquardt start below the
+/// sample's longest wave, kept").
+pub fn start_factor(grains: usize) -> f64 {
+    LAMBDA_START.min(1.0 / grains.max(1) as f64)
+}
 
 /// Relative residual below which a lag that stops converging hands over to semi-smooth
 /// Newton steps, and below which the worst grain is balanced on its own: after a bond breaks
@@ -385,7 +398,7 @@ pub fn minimise(
     }
     // Levenberg-Marquardt factor, raised after steps the line search had to cut hard and
     // lowered after full ones: it costs no factorisation of its own.
-    let mut lambda = settings.lambda_start.unwrap_or(LAMBDA_START);
+    let mut lambda = settings.lambda_start;
     let mut frozen = true;
     // Accepted steps since the lag was last refrozen.
     let mut held = 0usize;
