@@ -539,11 +539,12 @@ impl Simulation {
         u: &mut [f64],
         report: &mut IncrementReport,
     ) -> Result<(), NumericError> {
+        let start_factor = minimise::start_factor(self.state.grains.len());
         let mut settings = MinimiseSettings {
             tolerance: self.config.tolerance,
             lambda_min: self.config.lambda_min,
             max_iterations: self.config.max_iterations,
-            lambda_start: minimise::start_factor(self.state.grains.len()),
+            lambda_start: start_factor,
         };
         // Chain changes are counted over the passes: a chain that flips between two grains
         // makes a pattern that couples one and not the other, and would end every pass.
@@ -580,7 +581,7 @@ impl Simulation {
             settings.lambda_start = if outcome.at_reach {
                 outcome.lambda
             } else {
-                minimise::start_factor(self.state.grains.len())
+                start_factor
             };
             report.newton_iterations += outcome.iterations;
             report.residual = outcome.residual;
