@@ -35,6 +35,7 @@ pub mod error;
 pub mod estimate;
 pub mod geometry;
 pub mod measure;
+mod memory;
 pub mod output;
 pub mod parallel;
 pub mod run;

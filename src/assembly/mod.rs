@@ -11,6 +11,7 @@ mod local;
 pub use local::{contact_block, frame_turn_force, BlockTangent, LocalBlock};
 
 use crate::geometry::{Chain, FriendSet, Pair, Side, WallSet};
+use crate::memory::HeapBytes;
 use crate::parallel;
 use crate::solver::krylov;
 use faer::sparse::SymbolicSparseColMat;
@@ -435,17 +436,12 @@ impl Pattern {
     /// couplings, chain links), and the value slots of each pair's block.
     pub fn heap_bytes(&self) -> (usize, usize) {
         let word = std::mem::size_of::<usize>();
-        let structure = word
-            * (self.symbolic.col_ptr().len()
-                + self.symbolic.row_idx().len()
-                + self.diagonal.capacity()
-                + 3 * self.couplings.capacity()
-                + 2 * self.chain_links.capacity())
-            + 4 * self.row_order.capacity();
-        (
-            structure,
-            4 * self.slots.capacity() + word * self.start.capacity(),
-        )
+        let structure = word * (self.symbolic.col_ptr().len() + self.symbolic.row_idx().len())
+            + self.diagonal.heap_bytes()
+            + self.couplings.heap_bytes()
+            + self.chain_links.heap_bytes()
+            + self.row_order.heap_bytes();
+        (structure, self.slots.heap_bytes() + self.start.heap_bytes())
     }
 
     /// Number of stored entries.

@@ -29,6 +29,7 @@ use crate::assembly::{DofMap, Pattern};
 use crate::contact::{Configuration, ContactLaw, ContactSet, Kinematics};
 use crate::geometry::{chains, Chain, FriendSet, GrainSet, Pair, Side, WallControl, WallSet};
 use crate::measure::{measure, Measurements, MembraneBoundary, Region};
+use crate::memory::HeapBytes;
 use crate::solver::minimise::{MinimiseWork, Potential};
 use crate::solver::stats::{secs, StageTimers};
 use crate::solver::{LinearSolver, SolverConfig, SolverStats, Strategy};
@@ -802,14 +803,3 @@ fn friends_around(grains: &GrainSet, walls: &WallSet, skin: f64, required: &[Pai
 
 #[cfg(test)]
 mod tests;
-
-/// Bytes a vector holds on the heap.
-trait HeapBytes {
-    fn heap_bytes(&self) -> usize;
-}
-
-impl<T> HeapBytes for Vec<T> {
-    fn heap_bytes(&self) -> usize {
-        self.capacity() * std::mem::size_of::<T>()
-    }
-}

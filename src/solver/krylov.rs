@@ -3,6 +3,7 @@
 //! last Cholesky of the symmetric Hessian made in the same minimisation.
 
 use crate::assembly::value_index;
+use crate::memory::HeapBytes;
 use faer::sparse::SymbolicSparseColMat;
 
 /// For each entry of a symmetric pattern (both triangles stored, each column's rows sorted)
@@ -76,12 +77,12 @@ pub struct Gmres {
 impl Gmres {
     /// Bytes its buffers hold.
     pub fn heap_bytes(&self) -> usize {
-        let vectors = self.basis.iter().chain(&self.hessenberg);
-        let nested = vectors.map(|v| v.capacity()).sum::<usize>();
-        let flat = self.g.capacity() + self.y.capacity() + self.z.capacity() + self.w.capacity();
-        8 * (nested + flat)
-            + std::mem::size_of::<Vec<f64>>() * (self.basis.capacity() + self.hessenberg.capacity())
-            + 16 * self.rotations.capacity()
+        let nested = self.basis.iter().chain(&self.hessenberg);
+        let flat = [&self.g, &self.y, &self.z, &self.w];
+        nested.chain(flat).map(|v| v.heap_bytes()).sum::<usize>()
+            + self.basis.heap_bytes()
+            + self.hessenberg.heap_bytes()
+            + self.rotations.heap_bytes()
     }
 
     /// Solve `A x = b` by GMRES from `x = 0`, with `precondition` applying `M^-1` in place

@@ -19,6 +19,7 @@
 use super::krylov;
 use super::linear::{LinearSolver, NotFactorizable};
 use super::stats::SolverStats;
+use crate::memory::HeapBytes;
 use crate::NumericError;
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
 
@@ -77,7 +78,7 @@ impl MinimiseWork {
             &self.regularised,
             &self.consistent,
         ];
-        8 * vectors.iter().map(|v| v.capacity()).sum::<usize>() + self.gmres.heap_bytes()
+        vectors.iter().map(|v| v.heap_bytes()).sum::<usize>() + self.gmres.heap_bytes()
     }
 }
 

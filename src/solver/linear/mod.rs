@@ -26,6 +26,7 @@ use supernodal_solve::solve_llt;
 
 use super::stats::{secs, SolverStats};
 use crate::assembly::value_index;
+use crate::memory::HeapBytes;
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::cholesky::ldlt::factor::LdltRegularization;
 use faer::linalg::cholesky::llt::factor::LltRegularization;
@@ -334,7 +335,7 @@ impl LinearSolver {
     /// factorisation's scratch is not counted: faer reserves it, and touches what the
     /// largest supernode needs.
     pub fn heap_bytes(&self) -> (usize, usize) {
-        let factor = 8 * self.factor.capacity();
+        let factor = self.factor.heap_bytes();
         let Some(c) = &self.cholesky else {
             return (0, factor);
         };
@@ -347,11 +348,11 @@ impl LinearSolver {
             + s.row_idx().len()
             + 2 * c.work.len();
         let ordered = c.ordered.col_ptr().len() + c.ordered.row_idx().len();
-        let vectors =
-            c.values.capacity() + c.work.capacity() + c.below.capacity() + c.column_dots.capacity();
-        let analysis = word * (symbolic + ordered + c.diagonal.capacity())
-            + 4 * c.source.capacity()
-            + 8 * vectors;
+        let vectors = [&c.values, &c.work, &c.below, &c.column_dots];
+        let analysis = word * (symbolic + ordered)
+            + c.diagonal.heap_bytes()
+            + c.source.heap_bytes()
+            + vectors.iter().map(|v| v.heap_bytes()).sum::<usize>();
         (analysis, factor)
     }
 
