@@ -76,8 +76,8 @@ pub struct SolverConfig {
     #[serde(default = "yes")]
     pub stability_indicator: bool,
     /// The Cholesky's fill-reducing ordering: `"amd"` (faer's approximate minimum degree),
-    /// `"metis"` (METIS's nested dissection), or `"auto"`: AMD below a million unknowns,
-    /// METIS from there, the faster on each side as measured. Default `"auto"`.
+    /// `"metis"` (METIS's nested dissection), or `"auto"`: AMD below 90,000 unknowns
+    /// (30,000 grains), METIS from there, the faster on each side as measured. Default `"auto"`.
     #[serde(default)]
     pub ordering: FillOrdering,
 }

@@ -18,13 +18,13 @@ pub enum FillOrdering {
     Metis,
 }
 
-/// Unknowns from which [`FillOrdering::Auto`] takes METIS. Measured on one thread
-/// (docs/performance.md, "The crystal against a prepared sample, and the ordering"): a
-/// million-grain crystal (3 million unknowns) factorises in 16.9 s in METIS's order against
-/// 21.7 s in AMD's, and its four increments take 6% less for all that METIS's analysis takes
-/// three times AMD's; at 100,000 grains (300,000 unknowns) the factorisation gains 7% and
-/// the run nothing, and below that neither.
-pub const METIS_UNKNOWNS: usize = 1_000_000;
+/// Unknowns from which [`FillOrdering::Auto`] takes METIS. Measured on one thread on crystals
+/// (docs/performance.md, "The crystal against a prepared sample, and the ordering"): in
+/// METIS's order an increment takes 7% less at 98,588 unknowns, 6% less at 300,152 and at
+/// 3 million (the factorisation 12%, 12% and 22% less), though its analysis takes two to
+/// three times AMD's; at 30,000 unknowns (10,000 grains) the factorisation gains 0 to 6% and
+/// the analysis, made at every new pattern, takes twice AMD's: AMD is kept there.
+pub const METIS_UNKNOWNS: usize = 90_000;
 
 /// METIS's nested dissection of the graph of `pattern` (both triangles stored), with its
 /// default options (a fixed seed: the same order every run): the unknown of each pivot, and
