@@ -322,6 +322,19 @@ pub fn value_index(index: usize) -> u32 {
     u32::try_from(index).expect("a pattern of fewer than 2^32 entries")
 }
 
+/// Sort `rows` and move its distinct values to its front, in order: how many there are.
+fn sort_distinct(rows: &mut [u32]) -> usize {
+    rows.sort_unstable();
+    let mut k = 0;
+    for i in 0..rows.len() {
+        if k == 0 || rows[i] != rows[k - 1] {
+            rows[k] = rows[i];
+            k += 1;
+        }
+    }
+    k
+}
+
 impl Pattern {
     /// The pattern of every friend pair's block, every diagonal entry, and the coupling of a
     /// stress-controlled wall to the walls that set its loaded length.
@@ -332,25 +345,17 @@ impl Pattern {
         links: &[(usize, usize)],
     ) -> Pattern {
         let n = dofs.len;
-        let mut columns: Vec<Vec<usize>> = (0..n).map(|j| vec![j]).collect();
+        // The unknowns a pair touches, made again where needed rather than kept: its whole
+        // map (weights included, which do not matter here) is some 500 bytes.
+        let pair_dofs = |p: &Pair| {
+            let m = dofs.pair_map(*p, [0.0; 2]);
+            (m.dofs, m.len)
+        };
         // Grain links outside the friends lists (membrane chains): their centre blocks.
-        for &(a, b) in links {
+        let link_dofs = |&(a, b): &(usize, usize)| {
             let (ga, gb) = (dofs.grain(a), dofs.grain(b));
-            for c in [ga, ga + 1, gb, gb + 1] {
-                columns[c].extend_from_slice(&[ga, ga + 1, gb, gb + 1]);
-            }
-        }
-        // Only the unknowns matter here, not the weights.
-        let maps: Vec<PairMap> = friends
-            .pairs
-            .iter()
-            .map(|p| dofs.pair_map(*p, [0.0; 2]))
-            .collect();
-        for m in &maps {
-            for &c in &m.dofs[..m.len] {
-                columns[c].extend_from_slice(&m.dofs[..m.len]);
-            }
-        }
+            [ga, ga + 1, gb, gb + 1]
+        };
         let mut wanted_couplings = Vec::new();
         for (w, wall) in walls.walls.iter().enumerate() {
             let (Some(row), None) = (dofs.wall[w], wall.length) else {
@@ -358,23 +363,80 @@ impl Pattern {
             };
             if let Some((a, b)) = walls.span_walls(w) {
                 for col in [dofs.wall[a], dofs.wall[b]].into_iter().flatten() {
-                    columns[col].push(row);
-                    columns[row].push(col);
                     wanted_couplings.push((row, col));
                 }
             }
         }
-        parallel::for_each_mut(&mut columns, |col| {
-            col.sort_unstable();
-            col.dedup();
-        });
+        // Each column's rows, repeats included, in one vector of 32-bit indices: counted
+        // first, then placed. (A vector for each column held twice the bytes or more, and
+        // with the pairs' maps was most of a million-grain run's peak, where it made its
+        // lists anew: docs/performance.md, "Memory by part, from 10^3 to 10^6 grains".)
+        let mut count = vec![1usize; n];
+        for link in links {
+            for c in link_dofs(link) {
+                count[c] += 4;
+            }
+        }
+        for p in &friends.pairs {
+            let (d, len) = pair_dofs(p);
+            for &c in &d[..len] {
+                count[c] += len;
+            }
+        }
+        for &(row, col) in &wanted_couplings {
+            count[row] += 1;
+            count[col] += 1;
+        }
+        // Placed from each column's end back: `next[c]` ends at the column's start.
+        let mut next: Vec<usize> = count
+            .iter()
+            .scan(0, |end, c| {
+                *end += c;
+                Some(*end)
+            })
+            .collect();
+        let mut rows = vec![0u32; next.last().copied().unwrap_or(0)];
+        let mut place = |col: usize, row: usize| {
+            next[col] -= 1;
+            rows[next[col]] = value_index(row);
+        };
+        for j in 0..n {
+            place(j, j);
+        }
+        for link in links {
+            let d = link_dofs(link);
+            for c in d {
+                d.iter().for_each(|&r| place(c, r));
+            }
+        }
+        for p in &friends.pairs {
+            let (d, len) = pair_dofs(p);
+            for &c in &d[..len] {
+                d[..len].iter().for_each(|&r| place(c, r));
+            }
+        }
+        for &(row, col) in &wanted_couplings {
+            place(col, row);
+            place(row, col);
+        }
+        let mut columns = Vec::with_capacity(n);
+        let mut rest = rows.as_mut_slice();
+        for &c in &count {
+            let (column, after) = std::mem::take(&mut rest).split_at_mut(c);
+            columns.push(column);
+            rest = after;
+        }
+        let mut distinct = Vec::with_capacity(n);
+        parallel::map_mut_into(&mut columns, &mut distinct, |column| sort_distinct(column));
         let mut col_ptr = Vec::with_capacity(n + 1);
-        let mut row_idx = Vec::new();
+        let mut row_idx = Vec::with_capacity(distinct.iter().sum());
         col_ptr.push(0);
-        for col in &columns {
-            row_idx.extend_from_slice(col);
+        for (column, &k) in columns.iter().zip(&distinct) {
+            row_idx.extend(column[..k].iter().map(|&r| r as usize));
             col_ptr.push(row_idx.len());
         }
+        drop(columns);
+        drop(rows);
         let slot = |row: usize, col: usize| {
             let range = col_ptr[col]..col_ptr[col + 1];
             col_ptr[col]
@@ -382,16 +444,16 @@ impl Pattern {
                     .binary_search(&row)
                     .expect("entry in pattern")
         };
-        let mut start = Vec::with_capacity(maps.len() + 1);
+        let mut start = Vec::with_capacity(friends.pairs.len() + 1);
         start.push(0);
-        for m in &maps {
-            start.push(start[start.len() - 1] + m.len * m.len);
+        for p in &friends.pairs {
+            let len = pair_dofs(p).1;
+            start.push(start[start.len() - 1] + len * len);
         }
-        let mut slots = parallel::flat_map(maps.len(), |p| {
-            let m = &maps[p];
-            let dofs = &m.dofs[..m.len];
-            dofs.iter()
-                .flat_map(move |&c| dofs.iter().map(move |&r| (r, c)))
+        let mut slots = parallel::flat_map(friends.pairs.len(), |p| {
+            let (d, len) = pair_dofs(&friends.pairs[p]);
+            (0..len)
+                .flat_map(move |c| (0..len).map(move |r| (d[r], d[c])))
                 .map(|(r, c)| value_index(slot(r, c)))
         });
         slots.shrink_to_fit();
