@@ -322,6 +322,45 @@ pub fn value_index(index: usize) -> u32 {
     u32::try_from(index).expect("a pattern of fewer than 2^32 entries")
 }
 
+/// The unknowns pair `p` touches. Made again where needed rather than kept: its whole map
+/// (weights included, which do not matter to the pattern) is some 500 bytes.
+fn pair_dofs(dofs: &DofMap, p: &Pair) -> ([usize; 6], usize) {
+    let m = dofs.pair_map(*p, [0.0; 2]);
+    (m.dofs, m.len)
+}
+
+/// Every entry of the pattern as (column, row), repeats included: the diagonal, the centre
+/// blocks of grain links outside the friends lists (membrane chains), each friend pair's
+/// block, and each wall coupling both ways.
+fn each_entry(
+    dofs: &DofMap,
+    links: &[(usize, usize)],
+    pairs: &[Pair],
+    couplings: &[(usize, usize)],
+    mut visit: impl FnMut(usize, usize),
+) {
+    for j in 0..dofs.len {
+        visit(j, j);
+    }
+    for &(a, b) in links {
+        let (ga, gb) = (dofs.grain(a), dofs.grain(b));
+        let d = [ga, ga + 1, gb, gb + 1];
+        for c in d {
+            d.iter().for_each(|&r| visit(c, r));
+        }
+    }
+    for p in pairs {
+        let (d, len) = pair_dofs(dofs, p);
+        for &c in &d[..len] {
+            d[..len].iter().for_each(|&r| visit(c, r));
+        }
+    }
+    for &(row, col) in couplings {
+        visit(col, row);
+        visit(row, col);
+    }
+}
+
 /// Sort `rows` and move its distinct values to its front, in order: how many there are.
 fn sort_distinct(rows: &mut [u32]) -> usize {
     rows.sort_unstable();
@@ -345,17 +384,6 @@ impl Pattern {
         links: &[(usize, usize)],
     ) -> Pattern {
         let n = dofs.len;
-        // The unknowns a pair touches, made again where needed rather than kept: its whole
-        // map (weights included, which do not matter here) is some 500 bytes.
-        let pair_dofs = |p: &Pair| {
-            let m = dofs.pair_map(*p, [0.0; 2]);
-            (m.dofs, m.len)
-        };
-        // Grain links outside the friends lists (membrane chains): their centre blocks.
-        let link_dofs = |&(a, b): &(usize, usize)| {
-            let (ga, gb) = (dofs.grain(a), dofs.grain(b));
-            [ga, ga + 1, gb, gb + 1]
-        };
         let mut wanted_couplings = Vec::new();
         for (w, wall) in walls.walls.iter().enumerate() {
             let (Some(row), None) = (dofs.wall[w], wall.length) else {
@@ -371,22 +399,11 @@ impl Pattern {
         // first, then placed. (A vector for each column held twice the bytes or more, and
         // with the pairs' maps was most of a million-grain run's peak, where it made its
         // lists anew: docs/performance.md, "Memory by part, from 10^3 to 10^6 grains".)
-        let mut count = vec![1usize; n];
-        for link in links {
-            for c in link_dofs(link) {
-                count[c] += 4;
-            }
-        }
-        for p in &friends.pairs {
-            let (d, len) = pair_dofs(p);
-            for &c in &d[..len] {
-                count[c] += len;
-            }
-        }
-        for &(row, col) in &wanted_couplings {
-            count[row] += 1;
-            count[col] += 1;
-        }
+        let pairs = &friends.pairs;
+        let mut count = vec![0usize; n];
+        each_entry(dofs, links, pairs, &wanted_couplings, |col, _| {
+            count[col] += 1
+        });
         // Placed from each column's end back: `next[c]` ends at the column's start.
         let mut next: Vec<usize> = count
             .iter()
@@ -396,29 +413,10 @@ impl Pattern {
             })
             .collect();
         let mut rows = vec![0u32; next.last().copied().unwrap_or(0)];
-        let mut place = |col: usize, row: usize| {
+        each_entry(dofs, links, pairs, &wanted_couplings, |col, row| {
             next[col] -= 1;
             rows[next[col]] = value_index(row);
-        };
-        for j in 0..n {
-            place(j, j);
-        }
-        for link in links {
-            let d = link_dofs(link);
-            for c in d {
-                d.iter().for_each(|&r| place(c, r));
-            }
-        }
-        for p in &friends.pairs {
-            let (d, len) = pair_dofs(p);
-            for &c in &d[..len] {
-                d[..len].iter().for_each(|&r| place(c, r));
-            }
-        }
-        for &(row, col) in &wanted_couplings {
-            place(col, row);
-            place(row, col);
-        }
+        });
         let mut columns = Vec::with_capacity(n);
         let mut rest = rows.as_mut_slice();
         for &c in &count {
@@ -444,14 +442,14 @@ impl Pattern {
                     .binary_search(&row)
                     .expect("entry in pattern")
         };
-        let mut start = Vec::with_capacity(friends.pairs.len() + 1);
+        let mut start = Vec::with_capacity(pairs.len() + 1);
         start.push(0);
-        for p in &friends.pairs {
-            let len = pair_dofs(p).1;
+        for p in pairs {
+            let len = pair_dofs(dofs, p).1;
             start.push(start[start.len() - 1] + len * len);
         }
-        let mut slots = parallel::flat_map(friends.pairs.len(), |p| {
-            let (d, len) = pair_dofs(&friends.pairs[p]);
+        let mut slots = parallel::flat_map(pairs.len(), |p| {
+            let (d, len) = pair_dofs(dofs, &pairs[p]);
             (0..len)
                 .flat_map(move |c| (0..len).map(move |r| (d[r], d[c])))
                 .map(|(r, c)| value_index(slot(r, c)))
