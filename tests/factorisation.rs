@@ -21,9 +21,9 @@ fn the_next_tangent_is_symmetric_and_factorises() {
     assert_eq!(values.len(), symbolic.row_idx().len());
     let mut entries = HashMap::new();
     for col in 0..symbolic.ncols() {
-        let rows = symbolic.col_ptr()[col]..symbolic.col_ptr()[col + 1];
-        for k in rows {
-            entries.insert((symbolic.row_idx()[k], col), values[k]);
+        for (k, row) in symbolic.row_idx_of_col(col).enumerate() {
+            let slot = symbolic.col_ptr()[col] as usize + k;
+            entries.insert((row, col), values[slot]);
         }
     }
     let scale = values.iter().fold(0.0f64, |m, v| m.max(v.abs()));

@@ -13,7 +13,6 @@ pub use local::{contact_block, frame_turn_force, BlockTangent, LocalBlock};
 use crate::geometry::{Chain, FriendSet, Pair, Side, WallSet};
 use crate::memory::HeapBytes;
 use crate::parallel;
-use crate::solver::krylov;
 use faer::sparse::SymbolicSparseColMat;
 use rayon::prelude::*;
 use std::ops::Range;
@@ -299,17 +298,16 @@ type ScatterPart<'a> = (
 /// in the value array.
 #[derive(Debug, Clone)]
 pub struct Pattern {
-    /// Column structure for faer.
-    pub symbolic: SymbolicSparseColMat<usize>,
-    /// For pair `p`, `slots[start[p]..start[p+1]]` holds the value index of each
-    /// (row, column) of its reduced block, column by column as the values lie. In 32 bits,
-    /// as [`Pattern::row_order`]: they are most of the pattern's memory.
+    /// Column structure, in 32 bits as the slots (see [`value_index`]).
+    pub symbolic: SymbolicSparseColMat<u32>,
+    /// For pair `p`, `slots[start[p]..start[p+1]]` holds, column by column of its reduced
+    /// block as the values lie, the value index of the first row of each run of consecutive
+    /// unknowns in its map (see [`starts_run`]): the run's other rows follow it. In 32 bits:
+    /// they are most of the pattern's memory.
     slots: Vec<u32>,
     start: Vec<usize>,
     /// Value index of each diagonal entry.
     pub diagonal: Vec<usize>,
-    /// Value index of each entry in the order by rows (`krylov::row_order`).
-    pub row_order: Vec<u32>,
     /// Value index of the (wall, span wall) entries of follower loads: `(row, col, slot)`.
     pub couplings: Vec<(usize, usize, usize)>,
     /// The grain links outside the friends lists it was built with (membrane chains).
@@ -320,6 +318,14 @@ pub struct Pattern {
 /// patterns of some 70 million grains, far beyond what the factor leaves room for.
 pub fn value_index(index: usize) -> u32 {
     u32::try_from(index).expect("a pattern of fewer than 2^32 entries")
+}
+
+/// Whether the `r`-th of a pair's unknowns `dofs` starts a run of consecutive ones. A
+/// column's rows are sorted and distinct, so the rows of a run lie next to each other in
+/// every column that holds them: only the first one's value index need be kept (a grain's
+/// two or three unknowns are one run).
+fn starts_run(dofs: &[usize], r: usize) -> bool {
+    r == 0 || dofs[r] != dofs[r - 1] + 1
 }
 
 /// The unknowns pair `p` touches. Made again where needed rather than kept: its whole map
@@ -430,28 +436,33 @@ impl Pattern {
         let mut row_idx = Vec::with_capacity(distinct.iter().sum());
         col_ptr.push(0);
         for (column, &k) in columns.iter().zip(&distinct) {
-            row_idx.extend(column[..k].iter().map(|&r| r as usize));
-            col_ptr.push(row_idx.len());
+            row_idx.extend_from_slice(&column[..k]);
+            col_ptr.push(value_index(row_idx.len()));
         }
         drop(columns);
         drop(rows);
         let slot = |row: usize, col: usize| {
-            let range = col_ptr[col]..col_ptr[col + 1];
-            col_ptr[col]
+            let range = col_ptr[col] as usize..col_ptr[col + 1] as usize;
+            range.start
                 + row_idx[range]
-                    .binary_search(&row)
+                    .binary_search(&value_index(row))
                     .expect("entry in pattern")
         };
         let mut start = Vec::with_capacity(pairs.len() + 1);
         start.push(0);
         for p in pairs {
-            let len = pair_dofs(dofs, p).1;
-            start.push(start[start.len() - 1] + len * len);
+            let (d, len) = pair_dofs(dofs, p);
+            let runs = (0..len).filter(|&r| starts_run(&d[..len], r)).count();
+            start.push(start[start.len() - 1] + len * runs);
         }
         let mut slots = parallel::flat_map(pairs.len(), |p| {
             let (d, len) = pair_dofs(dofs, &pairs[p]);
             (0..len)
-                .flat_map(move |c| (0..len).map(move |r| (d[r], d[c])))
+                .flat_map(move |c| {
+                    (0..len)
+                        .filter(move |&r| starts_run(&d[..len], r))
+                        .map(move |r| (d[r], d[c]))
+                })
                 .map(|(r, c)| value_index(slot(r, c)))
         });
         slots.shrink_to_fit();
@@ -462,7 +473,6 @@ impl Pattern {
             .collect();
         let symbolic = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
         Pattern {
-            row_order: krylov::row_order(&symbolic),
             symbolic,
             slots,
             start,
@@ -474,9 +484,11 @@ impl Pattern {
 
     /// Value index of entry (`row`, `col`), if the pattern has it.
     pub fn slot(&self, row: usize, col: usize) -> Option<usize> {
-        let start = self.symbolic.col_ptr()[col];
+        let start = self.symbolic.col_ptr()[col] as usize;
         let rows = self.symbolic.row_idx_of_col_raw(col);
-        rows.binary_search(&row).ok().map(|k| start + k)
+        rows.binary_search(&value_index(row))
+            .ok()
+            .map(|k| start + k)
     }
 
     /// Whether the pattern has the centre blocks of grains `a` and `b` together.
@@ -492,15 +504,14 @@ impl Pattern {
             .all(|(a, b)| self.links(dofs, a, b))
     }
 
-    /// Bytes it holds: its structure (column pointers, rows, diagonal, order by rows,
-    /// couplings, chain links), and the value slots of each pair's block.
+    /// Bytes it holds: its structure (column pointers, rows, diagonal, couplings, chain
+    /// links), and the value slots of each pair's block.
     pub fn heap_bytes(&self) -> (usize, usize) {
-        let word = std::mem::size_of::<usize>();
+        let word = std::mem::size_of::<u32>();
         let structure = word * (self.symbolic.col_ptr().len() + self.symbolic.row_idx().len())
             + self.diagonal.heap_bytes()
             + self.couplings.heap_bytes()
-            + self.chain_links.heap_bytes()
-            + self.row_order.heap_bytes();
+            + self.chain_links.heap_bytes();
         (structure, self.slots.heap_bytes() + self.start.heap_bytes())
     }
 
@@ -509,7 +520,8 @@ impl Pattern {
         self.symbolic.row_idx().len()
     }
 
-    /// Value indices of pair `p`'s reduced block, column by column.
+    /// Value indices of the first row of each run of pair `p`'s reduced block, column by
+    /// column.
     pub fn pair_slots(&self, p: usize) -> &[u32] {
         &self.slots[self.start[p]..self.start[p + 1]]
     }
@@ -533,11 +545,11 @@ impl Pattern {
         second: Option<&mut [f64]>,
         tangent: Option<&mut [f64]>,
     ) {
-        let col_ptr = self.symbolic.col_ptr();
+        let col_ptr = |b: usize| self.symbolic.col_ptr()[b] as usize;
         let bounds = if parallel::worth_it(pair_index.len()) {
             // Shared by the entries of the tangent in each range, or by unknowns alone.
             match tangent {
-                Some(_) => parallel::split(residual.len(), |b| col_ptr[b]),
+                Some(_) => parallel::split(residual.len(), col_ptr),
                 None => parallel::split(residual.len(), |b| b),
             }
         } else {
@@ -554,14 +566,14 @@ impl Pattern {
                 part
             });
             let values = rest_values.take().map(|v| {
-                let (part, after) = v.split_at_mut(col_ptr[range[1]] - col_ptr[range[0]]);
+                let (part, after) = v.split_at_mut(col_ptr(range[1]) - col_ptr(range[0]));
                 rest_values = Some(after);
                 part
             });
             parts.push((range[0]..range[1], part, second, values));
         }
         let add = |(range, residual, mut second, mut values): ScatterPart<'_>| {
-            let offset = col_ptr[range.start];
+            let offset = col_ptr(range.start);
             let mut local = LocalBlock::default();
             for (i, &p) in pair_index.iter().enumerate() {
                 let map = map(i);
@@ -582,10 +594,24 @@ impl Pattern {
                 let Some(values) = values.as_deref_mut() else {
                     continue;
                 };
-                for (b, slots) in slots.chunks_exact(map.len).enumerate() {
+                // Each run of the map's unknowns: its first and its end.
+                let mut runs = [(0, 0); 6];
+                let mut count = 0;
+                for a in 0..map.len {
+                    if starts_run(dofs, a) {
+                        runs[count] = (a, a + 1);
+                        count += 1;
+                    } else {
+                        runs[count - 1].1 = a + 1;
+                    }
+                }
+                for (b, firsts) in slots.chunks_exact(count).enumerate() {
                     if range.contains(&dofs[b]) {
-                        for (row, &slot) in local.stiffness.iter().zip(slots) {
-                            values[slot as usize - offset] += row[b];
+                        for (&(first, end), &slot) in runs[..count].iter().zip(firsts) {
+                            let slot = slot as usize - offset;
+                            for (a, value) in (first..end).zip(&mut values[slot..]) {
+                                *value += local.stiffness[a][b];
+                            }
                         }
                     }
                 }

@@ -564,7 +564,6 @@ impl Simulation {
                     symbolic: &pattern.symbolic,
                     values: &mut values,
                     diagonal: &pattern.diagonal,
-                    row_order: &pattern.row_order,
                 },
                 &mut linear,
                 u,

@@ -230,7 +230,7 @@ impl Simulation {
             ("contacts and broken bonds (the state's)", contacts),
             ("contacts' kinematics and pair index", kinematics),
             ("friends lists", friends),
-            ("pattern: structure and order by rows", structure),
+            ("pattern: structure", structure),
             ("pattern: each pair's value slots", slots),
             ("Hessian's values", self.values.heap_bytes()),
             ("Cholesky analysis", analysis),

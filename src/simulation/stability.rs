@@ -179,12 +179,12 @@ fn mean_stiffness(diagonal: impl Iterator<Item = (f64, f64)>) -> f64 {
 fn scale_tangent(pattern: &crate::assembly::Pattern, values: &mut [f64], scale: &[f64]) {
     let symbolic = pattern.symbolic.as_ref();
     for (col, &s_col) in scale.iter().enumerate() {
-        let range = symbolic.col_ptr()[col]..symbolic.col_ptr()[col + 1];
+        let range = symbolic.col_ptr()[col] as usize..symbolic.col_ptr()[col + 1] as usize;
         for (v, &row) in values[range]
             .iter_mut()
             .zip(symbolic.row_idx_of_col_raw(col))
         {
-            *v *= scale[row] * s_col;
+            *v *= scale[row as usize] * s_col;
         }
     }
 }

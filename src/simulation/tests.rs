@@ -48,11 +48,8 @@ fn relative_error(
     h: f64,
 ) -> f64 {
     let mut kv = vec![0.0; v.len()];
-    let by_rows: Vec<f64> = pattern
-        .row_order
-        .iter()
-        .map(|&p| values[p as usize])
-        .collect();
+    let mut by_rows = values.to_vec();
+    krylov::to_rows_in_place(&pattern.symbolic, &mut by_rows, &mut Vec::new());
     krylov::multiply_by_rows(&pattern.symbolic, &by_rows, v, &mut kv);
     let (mut err, mut norm) = (0.0f64, 0.0f64);
     for k in 0..v.len() {

@@ -2,61 +2,82 @@
 //! semi-smooth steps solve with the unsymmetric consistent tangent, preconditioned by the
 //! last Cholesky of the symmetric Hessian made in the same minimisation.
 
-use crate::assembly::value_index;
 use crate::memory::HeapBytes;
 use faer::sparse::SymbolicSparseColMat;
 
-/// For each entry of a symmetric pattern (both triangles stored, each column's rows sorted)
-/// in the order by rows, its index among the values by columns: the layout
-/// [`multiply_by_rows`] reads a matrix of that pattern in, made once per pattern.
-pub fn row_order(pattern: &SymbolicSparseColMat<usize>) -> Vec<u32> {
-    let (col_ptr, row_idx) = (pattern.col_ptr(), pattern.row_idx());
-    let mut next = col_ptr[..pattern.ncols()].to_vec();
-    let mut order = vec![0; row_idx.len()];
-    for j in 0..pattern.ncols() {
-        for p in col_ptr[j]..col_ptr[j + 1] {
-            let i = row_idx[p];
-            debug_assert_eq!(row_idx[next[i]], j, "a symmetric pattern");
-            order[next[i]] = value_index(p);
-            next[i] += 1;
-        }
-    }
-    order
-}
-
 /// The values of a matrix of a symmetric pattern (both triangles stored, each column's rows
 /// sorted), by columns, put in the order by rows in place: the layout [`multiply_by_rows`]
-/// reads. On such a pattern an entry's place by rows is its transpose's place by columns, so
-/// [`row_order`] pairs the two and the values are swapped pair by pair.
-pub fn to_rows_in_place(row_order: &[u32], values: &mut [f64]) {
-    for (k, &p) in row_order.iter().enumerate() {
-        let p = p as usize;
-        if p > k {
-            values.swap(k, p);
+/// reads. On such a pattern an entry's place by rows is its transpose's place by columns:
+/// walking the columns in order, row `i`'s places by rows come in order too, so a cursor
+/// per row (`next`, kept by the caller) finds each entry's transpose, and the values are
+/// swapped pair by pair. Nothing of the size of the pattern is kept for it.
+pub fn to_rows_in_place(
+    pattern: &SymbolicSparseColMat<u32>,
+    values: &mut [f64],
+    next: &mut Vec<u32>,
+) {
+    let (col_ptr, row_idx) = (pattern.col_ptr(), pattern.row_idx());
+    next.clear();
+    next.extend_from_slice(&col_ptr[..pattern.ncols()]);
+    for j in 0..pattern.ncols() {
+        for p in col_ptr[j] as usize..col_ptr[j + 1] as usize {
+            let i = row_idx[p] as usize;
+            let k = next[i] as usize;
+            debug_assert_eq!(row_idx[k] as usize, j, "a symmetric pattern");
+            next[i] += 1;
+            if p > k {
+                values.swap(k, p);
+            }
         }
     }
 }
 
-/// `y = A x` for `A` of a symmetric pattern with its values `by_rows` in the order
-/// [`row_order`] gives. Each entry of the product is one running sum over its row, taken in
+/// Rows [`multiply_by_rows`] sums side by side.
+const ROWS_AT_ONCE: usize = 4;
+
+/// `y = A x` for `A` of a symmetric pattern with its values `by_rows` in the order by rows
+/// ([`to_rows_in_place`]). Each entry of the product is one running sum over its row, taken in
 /// the order of the columns as a product by columns adds them into it (the same values to the
-/// last bit), instead of every column scattered into the product.
+/// last bit), instead of every column scattered into the product. A row's sum is a chain of
+/// dependent additions, so four rows (`ROWS_AT_ONCE`) are summed side by side, each in its own
+/// order: their chains overlap, and every sum is the same.
 pub fn multiply_by_rows(
-    pattern: &SymbolicSparseColMat<usize>,
+    pattern: &SymbolicSparseColMat<u32>,
     by_rows: &[f64],
     x: &[f64],
     y: &mut [f64],
 ) {
     let (row_ptr, columns) = (pattern.col_ptr(), pattern.row_idx());
-    for (i, yi) in y.iter_mut().enumerate() {
-        let range = row_ptr[i]..row_ptr[i + 1];
+    let term = |k: usize| by_rows[k] * x[columns[k] as usize];
+    let whole = y.len() / ROWS_AT_ONCE * ROWS_AT_ONCE;
+    let (blocks, rest) = y.split_at_mut(whole);
+    for (block, y) in blocks.chunks_exact_mut(ROWS_AT_ONCE).enumerate() {
+        let first = block * ROWS_AT_ONCE;
+        let start: [usize; ROWS_AT_ONCE] = std::array::from_fn(|r| row_ptr[first + r] as usize);
+        let end: [usize; ROWS_AT_ONCE] = std::array::from_fn(|r| row_ptr[first + r + 1] as usize);
+        let common = (0..ROWS_AT_ONCE)
+            .map(|r| end[r] - start[r])
+            .min()
+            .unwrap_or(0);
         // From +0.0, as the product by columns starts: a zero product added to a sum never
         // changes it then, so the columns it skips where `x` is zero do not count.
-        let mut sum = 0.0;
-        for (a, &j) in by_rows[range.clone()].iter().zip(&columns[range]) {
-            sum += a * x[j];
+        let mut sum = [0.0; ROWS_AT_ONCE];
+        let values: [&[f64]; ROWS_AT_ONCE] =
+            std::array::from_fn(|r| &by_rows[start[r]..start[r] + common]);
+        let cols: [&[u32]; ROWS_AT_ONCE] =
+            std::array::from_fn(|r| &columns[start[r]..start[r] + common]);
+        for k in 0..common {
+            for r in 0..ROWS_AT_ONCE {
+                sum[r] += values[r][k] * x[cols[r][k] as usize];
+            }
         }
-        *yi = sum;
+        for r in 0..ROWS_AT_ONCE {
+            y[r] = (start[r] + common..end[r]).fold(sum[r], |sum, k| sum + term(k));
+        }
+    }
+    for (i, yi) in (whole..).zip(rest) {
+        let range = row_ptr[i] as usize..row_ptr[i + 1] as usize;
+        *yi = range.fold(0.0, |sum, k| sum + term(k));
     }
 }
 
@@ -191,11 +212,11 @@ mod tests {
     use faer::sparse::{SparseColMat, Triplet};
 
     /// A tridiagonal, unsymmetric, diagonally dominant matrix of size `n`.
-    fn matrix(n: usize) -> SparseColMat<usize, f64> {
+    fn matrix(n: usize) -> SparseColMat<u32, f64> {
         let mut entries = Vec::new();
-        for i in 0..n {
+        for i in 0..n as u32 {
             entries.push(Triplet::new(i, i, 4.0 + (i % 3) as f64));
-            if i + 1 < n {
+            if i + 1 < n as u32 {
                 entries.push(Triplet::new(i, i + 1, -1.0));
                 entries.push(Triplet::new(i + 1, i, -1.5));
             }
@@ -213,14 +234,15 @@ mod tests {
         for i in 0..n {
             for d in [0, 1, 3, 17] {
                 if i + d < n && (d == 0 || (i * 7 + d) % 3 != 0) {
-                    entries.push(Triplet::new(i, i + d, value(entries.len())));
+                    let (a, b) = (i as u32, (i + d) as u32);
+                    entries.push(Triplet::new(a, b, value(entries.len())));
                     if d > 0 {
-                        entries.push(Triplet::new(i + d, i, value(entries.len())));
+                        entries.push(Triplet::new(b, a, value(entries.len())));
                     }
                 }
             }
         }
-        let a = SparseColMat::<usize, f64>::try_new_from_triplets(n, n, &entries).unwrap();
+        let a = SparseColMat::<u32, f64>::try_new_from_triplets(n, n, &entries).unwrap();
         let pattern = a.symbolic().to_owned().unwrap();
         let x: Vec<f64> = (0..n)
             .map(|j| match j % 5 {
@@ -232,24 +254,21 @@ mod tests {
         let mut by_columns = vec![0.0; n];
         for (j, &xj) in x.iter().enumerate() {
             if xj != 0.0 {
-                for p in pattern.col_ptr()[j]..pattern.col_ptr()[j + 1] {
-                    by_columns[pattern.row_idx()[p]] += a.val()[p] * xj;
+                for p in pattern.col_ptr()[j] as usize..pattern.col_ptr()[j + 1] as usize {
+                    by_columns[pattern.row_idx()[p] as usize] += a.val()[p] * xj;
                 }
             }
         }
-        let by_rows: Vec<f64> = row_order(&pattern)
-            .iter()
-            .map(|&p| a.val()[p as usize])
-            .collect();
+        // The values by rows are those of the transpose by columns.
+        let by_rows = a.transpose().to_col_major().unwrap().val().to_vec();
+        let mut in_place = a.val().to_vec();
+        to_rows_in_place(&pattern, &mut in_place, &mut Vec::new());
+        assert_eq!(in_place, by_rows);
         let mut y = vec![f64::NAN; n];
         multiply_by_rows(&pattern, &by_rows, &x, &mut y);
         for (p, q) in y.iter().zip(&by_columns) {
             assert_eq!(p.to_bits(), q.to_bits(), "{p} against {q}");
         }
-        // The same layout made in place, without a second array.
-        let mut in_place = a.val().to_vec();
-        to_rows_in_place(&row_order(&pattern), &mut in_place);
-        assert_eq!(in_place, by_rows);
     }
 
     #[test]
@@ -257,10 +276,8 @@ mod tests {
         let n = 200;
         let a = matrix(n);
         let pattern = a.symbolic().to_owned().unwrap();
-        let by_rows: Vec<f64> = row_order(&pattern)
-            .iter()
-            .map(|&p| a.val()[p as usize])
-            .collect();
+        let mut by_rows = a.val().to_vec();
+        to_rows_in_place(&pattern, &mut by_rows, &mut Vec::new());
         let b: Vec<f64> = (0..n).map(|i| (i as f64).sin()).collect();
         let diagonal: Vec<f64> = (0..n).map(|i| 4.0 + (i % 3) as f64).collect();
         let mut x = vec![0.0; n];

@@ -27,14 +27,11 @@ use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
 /// slots.
 pub struct SystemMatrix<'a> {
     /// Pattern (full storage).
-    pub symbolic: &'a SymbolicSparseColMat<usize>,
+    pub symbolic: &'a SymbolicSparseColMat<u32>,
     /// Values of the Hessian, filled by [`Potential::evaluate`].
     pub values: &'a mut Vec<f64>,
     /// Value index of each diagonal entry.
     pub diagonal: &'a [usize],
-    /// The value index of each entry in the order by rows ([`krylov::row_order`]), in which
-    /// GMRES multiplies by the consistent tangent.
-    pub row_order: &'a [u32],
 }
 
 /// The minimisation's work vectors, kept from one minimisation to the next so that, once
@@ -55,6 +52,8 @@ pub struct MinimiseWork {
     /// GMRES's products. Free between minimisations: other evaluations of a tangent in a
     /// pattern (the stability indicator's) use it then.
     pub consistent: Vec<f64>,
+    /// Each row's next place by rows, while the consistent tangent is put in that order.
+    row_cursors: Vec<u32>,
     gmres: krylov::Gmres,
 }
 
@@ -78,7 +77,9 @@ impl MinimiseWork {
             &self.regularised,
             &self.consistent,
         ];
-        vectors.iter().map(|v| v.heap_bytes()).sum::<usize>() + self.gmres.heap_bytes()
+        vectors.iter().map(|v| v.heap_bytes()).sum::<usize>()
+            + self.row_cursors.heap_bytes()
+            + self.gmres.heap_bytes()
     }
 }
 
@@ -360,7 +361,6 @@ pub fn minimise(
         symbolic,
         values,
         diagonal,
-        row_order,
     } = matrix;
     let MinimiseWork {
         residual,
@@ -371,6 +371,7 @@ pub fn minimise(
         shift,
         regularised,
         consistent,
+        row_cursors,
         gmres,
     } = work;
     for v in [
@@ -486,7 +487,7 @@ pub fn minimise(
             if rel <= settings.tolerance {
                 continue;
             }
-            krylov::to_rows_in_place(row_order, consistent);
+            krylov::to_rows_in_place(symbolic, consistent, row_cursors);
             // The consistent tangent is regularised as the Hessian is (`regularise` with the
             // present Levenberg-Marquardt factor: its share on every row, and the floor of rows
             // with no stiffness). A grain whose contacts all slide has no stiffness along its
@@ -765,7 +766,7 @@ fn balance_worst(
 /// factor `lambda`; `shift` takes the regularisation.
 fn factorize_hessian(
     eq: &dyn Potential,
-    a: SparseColMatRef<'_, usize, f64>,
+    a: SparseColMatRef<'_, u32, f64>,
     diagonal: &[usize],
     lambda: f64,
     shift: &mut [f64],

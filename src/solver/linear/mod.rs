@@ -85,10 +85,14 @@ struct Cholesky {
 
 impl Cholesky {
     /// The Cholesky of `pattern` (both triangles stored) in the fill-reducing `ordering`.
+    /// The pattern comes in 32 bits, and faer analyses it in the word of the factor's own
+    /// indices, which may pass 2^32 where the pattern does not: a copy in that word is made
+    /// for the analysis alone.
     fn analyse(
-        pattern: &SymbolicSparseColMat<usize>,
+        pattern: &SymbolicSparseColMat<u32>,
         ordering: FillOrdering,
     ) -> Result<Self, NotFactorizable> {
+        let pattern = &widened(pattern);
         let faer_error = |e: faer::sparse::FaerError| NotFactorizable(format!("{e:?}"));
         let params = CholeskySymbolicParams {
             supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
@@ -146,6 +150,18 @@ impl Cholesky {
             }
         }
     }
+}
+
+/// `pattern` with its indices in the machine's word.
+fn widened(pattern: &SymbolicSparseColMat<u32>) -> SymbolicSparseColMat<usize> {
+    let word = |v: &[u32]| v.iter().map(|&i| i as usize).collect();
+    SymbolicSparseColMat::new_checked(
+        pattern.nrows(),
+        pattern.ncols(),
+        word(pattern.col_ptr()),
+        None,
+        word(pattern.row_idx()),
+    )
 }
 
 /// The supernodes of a Cholesky analysed in supernodes.
@@ -247,10 +263,13 @@ impl LinearSolver {
     /// [`PARALLEL_UNKNOWNS`] unknowns on.
     pub fn analyse(
         &mut self,
-        pattern: &SymbolicSparseColMat<usize>,
+        pattern: &SymbolicSparseColMat<u32>,
         stats: &mut SolverStats,
     ) -> Result<(), NotFactorizable> {
         let start = Instant::now();
+        // The old analysis goes first, so that the two are not held at once.
+        self.cholesky = None;
+        self.holds = Factor::Nothing;
         let threads = rayon::current_num_threads();
         self.par = if threads > 1 && pattern.nrows() >= PARALLEL_UNKNOWNS {
             Par::rayon(threads)
@@ -269,7 +288,6 @@ impl LinearSolver {
             ),
         ]));
         self.cholesky = Some(Box::new(c));
-        self.holds = Factor::Nothing;
         stats.counters.symbolic_factorisations += 1;
         stats.timers.symbolic += secs(start);
         Ok(())
@@ -278,7 +296,7 @@ impl LinearSolver {
     /// Numeric factorisation of `matrix` (which has the analysed pattern).
     pub fn factorize(
         &mut self,
-        matrix: SparseColMatRef<'_, usize, f64>,
+        matrix: SparseColMatRef<'_, u32, f64>,
         stats: &mut SolverStats,
     ) -> Result<(), NotFactorizable> {
         self.factorize_shifted(matrix, &[], stats)
@@ -288,7 +306,7 @@ impl LinearSolver {
     /// an empty `shift` adds nothing.
     pub fn factorize_shifted(
         &mut self,
-        matrix: SparseColMatRef<'_, usize, f64>,
+        matrix: SparseColMatRef<'_, u32, f64>,
         shift: &[f64],
         stats: &mut SolverStats,
     ) -> Result<(), NotFactorizable> {
@@ -392,7 +410,7 @@ impl LinearSolver {
     /// solve; until then [`LinearSolver::solve_ldlt_in_place`] solves with it.
     pub fn negative_pivots(
         &mut self,
-        matrix: SparseColMatRef<'_, usize, f64>,
+        matrix: SparseColMatRef<'_, u32, f64>,
         threshold: f64,
         stats: &mut SolverStats,
     ) -> Result<usize, NotFactorizable> {
@@ -487,8 +505,8 @@ pub(super) mod tests {
     /// The Dirichlet Laplacian of an `n` x `n` grid shifted by `-shift` (full storage), and
     /// how many of its eigenvalues, `4 - 2 cos(i pi / (n + 1)) - 2 cos(j pi / (n + 1))`, are
     /// below the shift.
-    pub(super) fn shifted_laplacian(n: usize, shift: f64) -> (SparseColMat<usize, f64>, usize) {
-        let index = |i: usize, j: usize| i * n + j;
+    pub(super) fn shifted_laplacian(n: usize, shift: f64) -> (SparseColMat<u32, f64>, usize) {
+        let index = |i: usize, j: usize| (i * n + j) as u32;
         let mut entries = Vec::new();
         for i in 0..n {
             for j in 0..n {
@@ -608,8 +626,11 @@ pub(super) mod tests {
             let pattern = matrix.symbolic().to_owned().unwrap();
             let diagonal: Vec<usize> = (0..n * n)
                 .map(|j| {
-                    let start = pattern.col_ptr()[j];
-                    start + pattern.row_idx_of_col_raw(j).binary_search(&j).unwrap()
+                    let start = pattern.col_ptr()[j] as usize;
+                    start
+                        + (pattern.row_idx_of_col_raw(j))
+                            .binary_search(&(j as u32))
+                            .unwrap()
                 })
                 .collect();
             let shift: Vec<f64> = (0..n * n).map(|j| 0.1 * (j % 3) as f64).collect();
