@@ -187,7 +187,19 @@ fn permute(
     let (n, nnz) = (pattern.nrows(), pattern.row_idx().len());
     // Each entry's index as its value (exact: far below 2^53), carried along by faer.
     let index: Vec<f64> = (0..nnz).map(|k| k as f64).collect();
-    let (mut source, mut col_ptr, mut row_idx) = (vec![0.0; nnz], vec![0; n + 1], vec![0; nnz]);
+    // The lower triangle's entries: as many in `P A P^T` as in `A`, the pattern being
+    // symmetric. faer fills that many; buffers of the whole pattern's size would be kept
+    // half empty.
+    let lower = (0..n)
+        .map(|j| {
+            pattern
+                .row_idx_of_col_raw(j)
+                .iter()
+                .filter(|&&i| i >= j)
+                .count()
+        })
+        .sum();
+    let (mut source, mut col_ptr, mut row_idx) = (vec![0.0; lower], vec![0; n + 1], vec![0; lower]);
     let mut scratch = MemBuffer::new(permute_self_adjoint_scratch::<usize>(n));
     permute_self_adjoint_to_unsorted(
         &mut source,
@@ -199,12 +211,8 @@ fn permute(
         Side::Lower,
         MemStack::new(&mut scratch),
     );
-    let len = col_ptr[n];
-    row_idx.truncate(len);
-    let source = source[..len]
-        .iter()
-        .map(|&k| value_index(k as usize))
-        .collect();
+    debug_assert_eq!(col_ptr[n], lower);
+    let source = source.iter().map(|&k| value_index(k as usize)).collect();
     let ordered = SymbolicSparseColMat::new_unsorted_checked(n, n, col_ptr, None, row_idx);
     (ordered, source)
 }
