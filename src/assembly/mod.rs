@@ -302,7 +302,7 @@ pub struct Pattern {
     pub symbolic: SymbolicSparseColMat<u32>,
     /// For pair `p`, `slots[start[p]..start[p+1]]` holds, column by column of its reduced
     /// block as the values lie, the value index of the first row of each run of consecutive
-    /// unknowns in its map (see [`starts_run`]): the run's other rows follow it. In 32 bits:
+    /// unknowns in its map (see [`runs`]): the run's other rows follow it. In 32 bits:
     /// they are most of the pattern's memory.
     slots: Vec<u32>,
     start: Vec<usize>,
@@ -320,12 +320,22 @@ pub fn value_index(index: usize) -> u32 {
     u32::try_from(index).expect("a pattern of fewer than 2^32 entries")
 }
 
-/// Whether the `r`-th of a pair's unknowns `dofs` starts a run of consecutive ones. A
-/// column's rows are sorted and distinct, so the rows of a run lie next to each other in
-/// every column that holds them: only the first one's value index need be kept (a grain's
-/// two or three unknowns are one run).
-fn starts_run(dofs: &[usize], r: usize) -> bool {
-    r == 0 || dofs[r] != dofs[r - 1] + 1
+/// The runs of consecutive unknowns among a pair's `dofs` (at most 6), each as the range of
+/// its places in `dofs`, and how many there are. A column's rows are sorted and distinct,
+/// so the rows of a run lie next to each other in every column that holds them: only the
+/// first one's value index need be kept (a grain's two or three unknowns are one run).
+fn runs(dofs: &[usize]) -> ([(usize, usize); 6], usize) {
+    let mut runs = [(0, 0); 6];
+    let mut count = 0;
+    for a in 0..dofs.len() {
+        if a > 0 && dofs[a] == dofs[a - 1] + 1 {
+            runs[count - 1].1 = a + 1;
+        } else {
+            runs[count] = (a, a + 1);
+            count += 1;
+        }
+    }
+    (runs, count)
 }
 
 /// The unknowns pair `p` touches. Made again where needed rather than kept: its whole map
@@ -452,17 +462,13 @@ impl Pattern {
         start.push(0);
         for p in pairs {
             let (d, len) = pair_dofs(dofs, p);
-            let runs = (0..len).filter(|&r| starts_run(&d[..len], r)).count();
-            start.push(start[start.len() - 1] + len * runs);
+            start.push(start[start.len() - 1] + len * runs(&d[..len]).1);
         }
         let mut slots = parallel::flat_map(pairs.len(), |p| {
             let (d, len) = pair_dofs(dofs, &pairs[p]);
+            let (runs, count) = runs(&d[..len]);
             (0..len)
-                .flat_map(move |c| {
-                    (0..len)
-                        .filter(move |&r| starts_run(&d[..len], r))
-                        .map(move |r| (d[r], d[c]))
-                })
+                .flat_map(move |c| (0..count).map(move |k| (d[runs[k].0], d[c])))
                 .map(|(r, c)| value_index(slot(r, c)))
         });
         slots.shrink_to_fit();
@@ -594,17 +600,7 @@ impl Pattern {
                 let Some(values) = values.as_deref_mut() else {
                     continue;
                 };
-                // Each run of the map's unknowns: its first and its end.
-                let mut runs = [(0, 0); 6];
-                let mut count = 0;
-                for a in 0..map.len {
-                    if starts_run(dofs, a) {
-                        runs[count] = (a, a + 1);
-                        count += 1;
-                    } else {
-                        runs[count - 1].1 = a + 1;
-                    }
-                }
+                let (runs, count) = runs(dofs);
                 for (b, firsts) in slots.chunks_exact(count).enumerate() {
                     if range.contains(&dofs[b]) {
                         for (&(first, end), &slot) in runs[..count].iter().zip(firsts) {
