@@ -43,7 +43,7 @@ use faer::sparse::linalg::cholesky::{
 use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::utils::{permute_self_adjoint_scratch, permute_self_adjoint_to_unsorted};
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMat};
-use faer::{Par, Side};
+use faer::{Index, Par, Side};
 use std::time::Instant;
 
 /// The factorisation could not be made (a non-positive pivot, or a singular matrix).
@@ -57,22 +57,22 @@ pub struct NotFactorizable(pub String);
 pub const PARALLEL_UNKNOWNS: usize = 100_000;
 
 /// The Cholesky of a pattern: faer's supernodal symbolic factorisation in a fill-reducing
-/// order, the matrix in that order, and the factors' values.
+/// order, the matrix in that order, and the factors' values, with indices of the word `I`.
 ///
 /// The supernodal factorisation is taken at every size: on these matrices (three unknowns
 /// per grain, each coupled to its neighbours') it is 1.3 to 6 times as fast as the simplicial
 /// one faer's own rule takes below some 5,000 grains. faer would permute the matrix into its
 /// order (and copy it) at every factorisation; here the values are gathered into that order
 /// straight from the pattern's, laid out as faer lays them out itself.
-struct Cholesky {
+struct Cholesky<I: Index> {
     /// The symbolic factorisation, with the order.
-    symbolic: SymbolicCholesky<usize>,
+    symbolic: SymbolicCholesky<I>,
     /// `P A P^T`: its lower triangle, which the numeric factorisation reads.
-    ordered: SymbolicSparseColMat<usize>,
+    ordered: SymbolicSparseColMat<I>,
     /// The value of `A` each entry of `ordered` takes (in 32 bits, as the pattern's slots).
     source: Vec<u32>,
     /// Where each pivot's diagonal entry lies in `ordered`.
-    diagonal: Vec<usize>,
+    diagonal: Vec<I>,
     /// The values of `ordered`.
     values: Vec<f64>,
     /// A right-hand side in the pivots' order.
@@ -83,31 +83,62 @@ struct Cholesky {
     column_dots: Vec<f64>,
 }
 
-impl Cholesky {
-    /// The Cholesky of `pattern` (both triangles stored) in the fill-reducing `ordering`.
-    /// The pattern comes in 32 bits, and faer analyses it in the word of the factor's own
-    /// indices, which may pass 2^32 where the pattern does not: a copy in that word is made
-    /// for the analysis alone.
-    fn analyse(
+/// A pattern's Cholesky in the word its factor needs. faer indexes the factor's values in
+/// the word of the matrix's indices, and a factor fills in to many times the pattern's
+/// entries: in 32 bits while it holds fewer than 2^32 values (some 7 million grains of a
+/// crystal), which halves the indices of the analysis, and in the machine's word past that.
+enum Analysis {
+    Narrow(Box<Cholesky<u32>>),
+    Wide(Box<Cholesky<usize>>),
+}
+
+/// `$body` with `$c` the Cholesky of `$analysis`, in whichever word it is.
+macro_rules! with_cholesky {
+    ($analysis:expr, $c:ident => $body:expr) => {
+        match $analysis {
+            Analysis::Narrow($c) => $body,
+            Analysis::Wide($c) => $body,
+        }
+    };
+}
+
+impl Analysis {
+    /// The Cholesky of `pattern` (both triangles stored) in the fill-reducing `ordering`: in
+    /// the pattern's own 32 bits, or, where the factor would hold 2^32 values or more, in a
+    /// copy of it in the machine's word.
+    fn of(
         pattern: &SymbolicSparseColMat<u32>,
         ordering: FillOrdering,
     ) -> Result<Self, NotFactorizable> {
-        let pattern = &widened(pattern);
-        let faer_error = |e: faer::sparse::FaerError| NotFactorizable(format!("{e:?}"));
-        let params = CholeskySymbolicParams {
-            supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
-            ..Default::default()
-        };
         let metis = match ordering {
             FillOrdering::Auto => pattern.nrows() >= METIS_UNKNOWNS,
             FillOrdering::Amd => false,
             FillOrdering::Metis => true,
         };
-        let dissected = if metis {
-            Some(nested_dissection(pattern)?)
-        } else {
-            None
+        let dissected = metis.then(|| nested_dissection(pattern)).transpose()?;
+        let Some(c) = Cholesky::analyse(pattern, dissected.as_ref())? else {
+            let wide = Cholesky::analyse(&widened(pattern), dissected.as_ref())?;
+            let c = wide.ok_or_else(|| NotFactorizable("the factor's indices overflow".into()))?;
+            return Ok(Analysis::Wide(Box::new(c)));
         };
+        Ok(Analysis::Narrow(Box::new(c)))
+    }
+}
+
+impl<I: Index> Cholesky<I> {
+    /// The Cholesky of `pattern` (both triangles stored) in METIS's order `dissected` (the
+    /// unknown of each pivot, and the pivot of each unknown), or else in faer's AMD; `None`
+    /// where the factor's indices overflow the word `I`.
+    fn analyse(
+        pattern: &SymbolicSparseColMat<I>,
+        dissected: Option<&(Vec<usize>, Vec<usize>)>,
+    ) -> Result<Option<Self>, NotFactorizable> {
+        let params = CholeskySymbolicParams {
+            supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
+            ..Default::default()
+        };
+        let word = |v: &[usize]| v.iter().map(|&k| I::truncate(k)).collect::<Vec<I>>();
+        let dissected = dissected.map(|(fwd, inv)| (word(fwd), word(inv)));
         let pivot_order = match &dissected {
             Some((fwd, inv)) => {
                 SymmetricOrdering::Custom(PermRef::new_checked(fwd, inv, fwd.len()))
@@ -115,19 +146,22 @@ impl Cholesky {
             None => SymmetricOrdering::Amd,
         };
         let symbolic =
-            factorize_symbolic_cholesky(pattern.as_ref(), Side::Lower, pivot_order, params)
-                .map_err(faer_error)?;
+            match factorize_symbolic_cholesky(pattern.as_ref(), Side::Lower, pivot_order, params) {
+                Ok(symbolic) => symbolic,
+                Err(faer::sparse::FaerError::IndexOverflow) => return Ok(None),
+                Err(e) => return Err(NotFactorizable(format!("{e:?}"))),
+            };
         let perm = symbolic.perm().expect("an ordering");
         let (ordered, source) = permute(pattern, perm);
         let n = pattern.nrows();
         let diagonal = (0..n)
             .map(|j| {
-                let start = ordered.col_ptr()[j];
+                let start = ordered.col_ptr()[j].zx();
                 let rows = ordered.row_idx_of_col_raw(j);
-                start + rows.iter().position(|&i| i == j).expect("a diagonal entry")
+                I::truncate(start + rows.iter().position(|&i| i.zx() == j).expect("a diagonal"))
             })
             .collect();
-        Ok(Cholesky {
+        Ok(Some(Cholesky {
             values: vec![0.0; source.len()],
             ordered,
             source,
@@ -136,7 +170,7 @@ impl Cholesky {
             below: Vec::new(),
             column_dots: Vec::new(),
             symbolic,
-        })
+        }))
     }
 
     /// `P (A + diag(shift)) P^T` into `values` (no shift when `shift` is empty).
@@ -146,9 +180,139 @@ impl Cholesky {
         }
         if !shift.is_empty() {
             for (&slot, &dof) in self.diagonal.iter().zip(order(&self.symbolic).0) {
-                self.values[slot] += shift[dof];
+                self.values[slot.zx()] += shift[dof.zx()];
             }
         }
+    }
+
+    /// Numeric factorisation of `a + diag(shift)` into `factor`: `L L^T`.
+    fn factorize_llt(
+        &mut self,
+        a: &[f64],
+        shift: &[f64],
+        factor: &mut Vec<f64>,
+        (par, scratch): (Par, &mut MemBuffer),
+    ) -> Result<(), NotFactorizable> {
+        self.gather(a, shift);
+        factor.resize(self.symbolic.len_val(), 0.0);
+        factorize_supernodal_numeric_llt(
+            factor,
+            SparseColMatRef::new(self.ordered.as_ref(), &self.values),
+            LltRegularization::default(),
+            supernodes(&self.symbolic),
+            par,
+            MemStack::new(scratch),
+            Default::default(),
+        )
+        .map(|_| ())
+        .map_err(|e| NotFactorizable(format!("{e:?}")))
+    }
+
+    /// Numeric factorisation of `a` into `factor`: `L D L^T`, its pivots within `threshold`
+    /// of zero set to `+-threshold`; the pivots below `-threshold` counted.
+    fn factorize_ldlt(
+        &mut self,
+        a: &[f64],
+        threshold: f64,
+        factor: &mut Vec<f64>,
+        (par, scratch): (Par, &mut MemBuffer),
+    ) -> Result<usize, NotFactorizable> {
+        self.gather(a, &[]);
+        factor.resize(self.symbolic.len_val(), 0.0);
+        let regularization = LdltRegularization {
+            dynamic_regularization_signs: None,
+            dynamic_regularization_delta: threshold,
+            dynamic_regularization_epsilon: threshold,
+        };
+        factorize_supernodal_numeric_ldlt(
+            factor,
+            SparseColMatRef::new(self.ordered.as_ref(), &self.values),
+            regularization,
+            supernodes(&self.symbolic),
+            par,
+            MemStack::new(scratch),
+            Default::default(),
+        )
+        .map_err(|e| NotFactorizable(format!("{e:?}")))?;
+        // A supernode's diagonal block holds its pivots on its diagonal.
+        let factor = SupernodalLdltRef::new(
+            supernodes(&self.symbolic),
+            &factor[..self.symbolic.len_val()],
+        );
+        Ok((0..factor.symbolic().n_supernodes())
+            .map(|k| {
+                let block = factor.supernode(k).val();
+                (0..block.ncols())
+                    .filter(|&j| block[(j, j)] < -threshold)
+                    .count()
+            })
+            .sum())
+    }
+
+    /// Solve `L L^T x = b` in place with `factor`.
+    fn solve_llt(&mut self, factor: &[f64], rhs: &mut [f64]) {
+        let (forward, inverse) = order(&self.symbolic);
+        for (w, &dof) in self.work.iter_mut().zip(forward) {
+            *w = rhs[dof.zx()];
+        }
+        let scratch = (&mut self.below, &mut self.column_dots);
+        solve_llt(supernodes(&self.symbolic), factor, &mut self.work, scratch);
+        for (r, &pivot) in rhs.iter_mut().zip(inverse) {
+            *r = self.work[pivot.zx()];
+        }
+    }
+
+    /// Solve `A X = B` in place with the `L D L^T` in `factor`, for the `columns`
+    /// right-hand sides that `rhs` holds one after another.
+    fn solve_ldlt(&self, factor: &[f64], rhs: &mut [f64], columns: usize, par: Par) {
+        let n = self.work.len();
+        let (forward, inverse) = order(&self.symbolic);
+        let mut ordered = vec![0.0; n * columns];
+        for (o, b) in ordered.chunks_exact_mut(n).zip(rhs.chunks_exact(n)) {
+            for (v, &dof) in o.iter_mut().zip(forward) {
+                *v = b[dof.zx()];
+            }
+        }
+        let s = supernodes(&self.symbolic);
+        let mut scratch = MemBuffer::new(s.solve_in_place_scratch::<f64>(columns, par));
+        SupernodalLdltRef::new(s, &factor[..self.symbolic.len_val()]).solve_in_place_with_conj(
+            faer::Conj::No,
+            faer::MatMut::from_column_major_slice_mut(&mut ordered, n, columns),
+            par,
+            MemStack::new(&mut scratch),
+        );
+        for (x, o) in rhs.chunks_exact_mut(n).zip(ordered.chunks_exact(n)) {
+            for (v, &pivot) in x.iter_mut().zip(inverse) {
+                *v = o[pivot.zx()];
+            }
+        }
+    }
+
+    /// The scratch of its numeric factorisations on `par`.
+    fn scratch(&self, par: Par) -> StackReq {
+        let s = supernodes(&self.symbolic);
+        StackReq::any_of(&[
+            factorize_supernodal_numeric_llt_scratch::<I, f64>(s, par, Default::default()),
+            factorize_supernodal_numeric_ldlt_scratch::<I, f64>(s, par, Default::default()),
+        ])
+    }
+
+    /// Bytes the analysis holds: the matrix in its order, its map and values, the symbolic
+    /// factor and its order, the work vectors.
+    fn heap_bytes(&self) -> usize {
+        let word = std::mem::size_of::<I>();
+        let s = supernodes(&self.symbolic);
+        let symbolic = s.supernode_begin().len()
+            + s.supernode_end().len()
+            + s.col_ptr_for_row_idx().len()
+            + s.col_ptr_for_val().len()
+            + s.row_idx().len()
+            + 2 * self.work.len();
+        let ordered = self.ordered.col_ptr().len() + self.ordered.row_idx().len();
+        let vectors = [&self.values, &self.work, &self.below, &self.column_dots];
+        word * (symbolic + ordered + self.diagonal.len())
+            + self.source.heap_bytes()
+            + vectors.iter().map(|v| v.heap_bytes()).sum::<usize>()
     }
 }
 
@@ -165,7 +329,7 @@ fn widened(pattern: &SymbolicSparseColMat<u32>) -> SymbolicSparseColMat<usize> {
 }
 
 /// The supernodes of a Cholesky analysed in supernodes.
-fn supernodes(symbolic: &SymbolicCholesky<usize>) -> &SymbolicSupernodalCholesky<usize> {
+fn supernodes<I: Index>(symbolic: &SymbolicCholesky<I>) -> &SymbolicSupernodalCholesky<I> {
     match symbolic.raw() {
         SymbolicCholeskyRaw::Supernodal(s) => s,
         SymbolicCholeskyRaw::Simplicial(_) => unreachable!("analysed in supernodes"),
@@ -173,17 +337,17 @@ fn supernodes(symbolic: &SymbolicCholesky<usize>) -> &SymbolicSupernodalCholesky
 }
 
 /// The unknown of each pivot, and the pivot of each unknown.
-fn order(symbolic: &SymbolicCholesky<usize>) -> (&[usize], &[usize]) {
+fn order<I: Index>(symbolic: &SymbolicCholesky<I>) -> (&[I], &[I]) {
     symbolic.perm().expect("an ordering").arrays()
 }
 
 /// The lower triangle of `P A P^T` of the pattern `A` (both triangles stored), laid out as
 /// faer lays it out when it permutes a matrix itself, and the entry of `A` each of its
 /// entries is.
-fn permute(
-    pattern: &SymbolicSparseColMat<usize>,
-    perm: PermRef<'_, usize>,
-) -> (SymbolicSparseColMat<usize>, Vec<u32>) {
+fn permute<I: Index>(
+    pattern: &SymbolicSparseColMat<I>,
+    perm: PermRef<'_, I>,
+) -> (SymbolicSparseColMat<I>, Vec<u32>) {
     let (n, nnz) = (pattern.nrows(), pattern.row_idx().len());
     // Each entry's index as its value (exact: far below 2^53), carried along by faer.
     let index: Vec<f64> = (0..nnz).map(|k| k as f64).collect();
@@ -195,12 +359,14 @@ fn permute(
             pattern
                 .row_idx_of_col_raw(j)
                 .iter()
-                .filter(|&&i| i >= j)
+                .filter(|&&i| i.zx() >= j)
                 .count()
         })
         .sum();
-    let (mut source, mut col_ptr, mut row_idx) = (vec![0.0; lower], vec![0; n + 1], vec![0; lower]);
-    let mut scratch = MemBuffer::new(permute_self_adjoint_scratch::<usize>(n));
+    let zero = I::truncate(0);
+    let (mut source, mut col_ptr, mut row_idx) =
+        (vec![0.0; lower], vec![zero; n + 1], vec![zero; lower]);
+    let mut scratch = MemBuffer::new(permute_self_adjoint_scratch::<I>(n));
     permute_self_adjoint_to_unsorted(
         &mut source,
         &mut col_ptr,
@@ -211,7 +377,7 @@ fn permute(
         Side::Lower,
         MemStack::new(&mut scratch),
     );
-    debug_assert_eq!(col_ptr[n], lower);
+    debug_assert_eq!(col_ptr[n].zx(), lower);
     let source = source.iter().map(|&k| value_index(k as usize)).collect();
     let ordered = SymbolicSparseColMat::new_unsorted_checked(n, n, col_ptr, None, row_idx);
     (ordered, source)
@@ -232,7 +398,7 @@ enum Factor {
 pub struct LinearSolver {
     ordering: FillOrdering,
     par: Par,
-    cholesky: Option<Box<Cholesky>>,
+    cholesky: Option<Analysis>,
     scratch: MemBuffer,
     /// What `factor` holds.
     holds: Factor,
@@ -284,18 +450,10 @@ impl LinearSolver {
         } else {
             Par::Seq
         };
-        let c = Cholesky::analyse(pattern, self.ordering)?;
+        let analysis = Analysis::of(pattern, self.ordering)?;
         // The supernodal factorisations' own scratch: the matrix comes already in the order.
-        let s = supernodes(&c.symbolic);
-        self.scratch = MemBuffer::new(StackReq::any_of(&[
-            factorize_supernodal_numeric_llt_scratch::<usize, f64>(s, self.par, Default::default()),
-            factorize_supernodal_numeric_ldlt_scratch::<usize, f64>(
-                s,
-                self.par,
-                Default::default(),
-            ),
-        ]));
-        self.cholesky = Some(Box::new(c));
+        self.scratch = MemBuffer::new(with_cholesky!(&analysis, c => c.scratch(self.par)));
+        self.cholesky = Some(analysis);
         stats.counters.symbolic_factorisations += 1;
         stats.timers.symbolic += secs(start);
         Ok(())
@@ -320,23 +478,13 @@ impl LinearSolver {
     ) -> Result<(), NotFactorizable> {
         let start = Instant::now();
         self.holds = Factor::Nothing;
-        let Some(c) = &mut self.cholesky else {
+        let Some(analysis) = &mut self.cholesky else {
             return Err(NotFactorizable("no symbolic factorisation".into()));
         };
-        c.gather(matrix.val(), shift);
-        let c = &mut **c;
-        self.factor.resize(c.symbolic.len_val(), 0.0);
-        let result = factorize_supernodal_numeric_llt(
-            &mut self.factor,
-            SparseColMatRef::new(c.ordered.as_ref(), &c.values),
-            LltRegularization::default(),
-            supernodes(&c.symbolic),
-            self.par,
-            MemStack::new(&mut self.scratch),
-            Default::default(),
-        )
-        .map(|_| ())
-        .map_err(|e| NotFactorizable(format!("{e:?}")));
+        let work = (self.par, &mut self.scratch);
+        let result = with_cholesky!(analysis, c => {
+            c.factorize_llt(matrix.val(), shift, &mut self.factor, work)
+        });
         stats.counters.numeric_factorisations += 1;
         stats.timers.factorisation += secs(start);
         if result.is_ok() {
@@ -353,7 +501,7 @@ impl LinearSolver {
     /// Values the factor of the analysed pattern holds (its supernodes' dense blocks, padding
     /// included): its fill.
     pub fn factor_entries(&self) -> usize {
-        self.cholesky.as_ref().map_or(0, |c| c.symbolic.len_val())
+        (self.cholesky.as_ref()).map_or(0, |a| with_cholesky!(a, c => c.symbolic.len_val()))
     }
 
     /// Bytes it holds: the analysis (the matrix in its order, its map and values, the
@@ -361,25 +509,9 @@ impl LinearSolver {
     /// factorisation's scratch is not counted: faer reserves it, and touches what the
     /// largest supernode needs.
     pub fn heap_bytes(&self) -> (usize, usize) {
-        let factor = self.factor.heap_bytes();
-        let Some(c) = &self.cholesky else {
-            return (0, factor);
-        };
-        let word = std::mem::size_of::<usize>();
-        let s = supernodes(&c.symbolic);
-        let symbolic = s.supernode_begin().len()
-            + s.supernode_end().len()
-            + s.col_ptr_for_row_idx().len()
-            + s.col_ptr_for_val().len()
-            + s.row_idx().len()
-            + 2 * c.work.len();
-        let ordered = c.ordered.col_ptr().len() + c.ordered.row_idx().len();
-        let vectors = [&c.values, &c.work, &c.below, &c.column_dots];
-        let analysis = word * (symbolic + ordered)
-            + c.diagonal.heap_bytes()
-            + c.source.heap_bytes()
-            + vectors.iter().map(|v| v.heap_bytes()).sum::<usize>();
-        (analysis, factor)
+        let analysis =
+            (self.cholesky.as_ref()).map_or(0, |a| with_cholesky!(a, c => c.heap_bytes()));
+        (analysis, self.factor.heap_bytes())
     }
 
     /// Whether a pattern has been analysed.
@@ -395,17 +527,8 @@ impl LinearSolver {
     /// Solve `A x = b` in place (`rhs` holds `b` on entry and `x` on return).
     pub fn solve_in_place(&mut self, rhs: &mut [f64], stats: &mut SolverStats) {
         let start = Instant::now();
-        if let Some(c) = &mut self.cholesky {
-            let c = &mut **c;
-            let (forward, inverse) = order(&c.symbolic);
-            for (w, &dof) in c.work.iter_mut().zip(forward) {
-                *w = rhs[dof];
-            }
-            let scratch = (&mut c.below, &mut c.column_dots);
-            solve_llt(supernodes(&c.symbolic), &self.factor, &mut c.work, scratch);
-            for (r, &pivot) in rhs.iter_mut().zip(inverse) {
-                *r = c.work[pivot];
-            }
+        if let Some(analysis) = &mut self.cholesky {
+            with_cholesky!(analysis, c => c.solve_llt(&self.factor, rhs));
         }
         stats.counters.solves += 1;
         stats.timers.solve += secs(start);
@@ -424,44 +547,19 @@ impl LinearSolver {
     ) -> Result<usize, NotFactorizable> {
         let start = Instant::now();
         self.holds = Factor::Nothing;
-        let Some(c) = &mut self.cholesky else {
+        let Some(analysis) = &mut self.cholesky else {
             return Err(NotFactorizable("no symbolic factorisation".into()));
         };
-        c.gather(matrix.val(), &[]);
-        let c = &mut **c;
-        self.factor.resize(c.symbolic.len_val(), 0.0);
-        // Pivots within the threshold are set to +-threshold, so that none is zero.
-        let regularization = LdltRegularization {
-            dynamic_regularization_signs: None,
-            dynamic_regularization_delta: threshold,
-            dynamic_regularization_epsilon: threshold,
-        };
-        let result = factorize_supernodal_numeric_ldlt(
-            &mut self.factor,
-            SparseColMatRef::new(c.ordered.as_ref(), &c.values),
-            regularization,
-            supernodes(&c.symbolic),
-            self.par,
-            MemStack::new(&mut self.scratch),
-            Default::default(),
-        );
+        let work = (self.par, &mut self.scratch);
+        let count = with_cholesky!(analysis, c => {
+            c.factorize_ldlt(matrix.val(), threshold, &mut self.factor, work)
+        });
         stats.counters.numeric_factorisations += 1;
         stats.timers.factorisation += secs(start);
-        result.map_err(|e| NotFactorizable(format!("{e:?}")))?;
-        self.holds = Factor::Ldlt;
-        // A supernode's diagonal block holds its pivots on its diagonal.
-        let factor = SupernodalLdltRef::new(
-            supernodes(&c.symbolic),
-            &self.factor[..c.symbolic.len_val()],
-        );
-        Ok((0..factor.symbolic().n_supernodes())
-            .map(|k| {
-                let block = factor.supernode(k).val();
-                (0..block.ncols())
-                    .filter(|&j| block[(j, j)] < -threshold)
-                    .count()
-            })
-            .sum())
+        if count.is_ok() {
+            self.holds = Factor::Ldlt;
+        }
+        count
     }
 
     /// Solve `A X = B` in place with the `L D L^T` of the last
@@ -473,31 +571,11 @@ impl LinearSolver {
         columns: usize,
         stats: &mut SolverStats,
     ) -> Result<(), NotFactorizable> {
-        let (Some(c), Factor::Ldlt) = (&self.cholesky, self.holds) else {
+        let (Some(analysis), Factor::Ldlt) = (&self.cholesky, self.holds) else {
             return Err(NotFactorizable("no L D L^T to solve with".into()));
         };
         let start = Instant::now();
-        let n = c.work.len();
-        let (forward, inverse) = order(&c.symbolic);
-        let mut ordered = vec![0.0; n * columns];
-        for (o, b) in ordered.chunks_exact_mut(n).zip(rhs.chunks_exact(n)) {
-            for (v, &dof) in o.iter_mut().zip(forward) {
-                *v = b[dof];
-            }
-        }
-        let s = supernodes(&c.symbolic);
-        let mut scratch = MemBuffer::new(s.solve_in_place_scratch::<f64>(columns, self.par));
-        SupernodalLdltRef::new(s, &self.factor[..c.symbolic.len_val()]).solve_in_place_with_conj(
-            faer::Conj::No,
-            faer::MatMut::from_column_major_slice_mut(&mut ordered, n, columns),
-            self.par,
-            MemStack::new(&mut scratch),
-        );
-        for (x, o) in rhs.chunks_exact_mut(n).zip(ordered.chunks_exact(n)) {
-            for (v, &pivot) in x.iter_mut().zip(inverse) {
-                *v = o[pivot];
-            }
-        }
+        with_cholesky!(analysis, c => c.solve_ldlt(&self.factor, rhs, columns, self.par));
         stats.counters.solves += columns;
         stats.timers.solve += secs(start);
         Ok(())
@@ -696,6 +774,46 @@ pub(super) mod tests {
                     "grid {n} x {n}: {a} against {b}"
                 );
             }
+        }
+    }
+
+    #[test]
+    fn the_analysis_in_32_bits_factorises_and_solves_as_in_the_machines_word() {
+        let (matrix, _) = shifted_laplacian(40, 0.0);
+        let pattern = matrix.symbolic().to_owned().unwrap();
+        let shift: Vec<f64> = (0..1600).map(|j| 0.1 * (j % 3) as f64).collect();
+        let rhs: Vec<f64> = (0..1600).map(|i| (i % 7) as f64 - 3.0).collect();
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        let dissected = nested_dissection(&pattern).unwrap();
+        for ordering in [None, Some(&dissected)] {
+            let mut narrow = Cholesky::analyse(&pattern, ordering).unwrap().unwrap();
+            let mut wide = Cholesky::analyse(&widened(&pattern), ordering)
+                .unwrap()
+                .unwrap();
+            let mut scratch = MemBuffer::new(narrow.scratch(Par::Seq));
+            let (mut factor, mut wide_factor) = (Vec::new(), Vec::new());
+            narrow
+                .factorize_llt(matrix.val(), &shift, &mut factor, (Par::Seq, &mut scratch))
+                .unwrap();
+            let mut scratch = MemBuffer::new(wide.scratch(Par::Seq));
+            wide.factorize_llt(
+                matrix.val(),
+                &shift,
+                &mut wide_factor,
+                (Par::Seq, &mut scratch),
+            )
+            .unwrap();
+            assert_eq!(
+                bits(&factor),
+                bits(&wide_factor),
+                "METIS: {}",
+                ordering.is_some()
+            );
+            let (mut x, mut y) = (rhs.clone(), rhs.clone());
+            narrow.solve_llt(&factor, &mut x);
+            wide.solve_llt(&wide_factor, &mut y);
+            assert_eq!(bits(&x), bits(&y), "METIS: {}", ordering.is_some());
+            assert!(x.iter().all(|v| v.is_finite()));
         }
     }
 

@@ -1,6 +1,7 @@
 //! The solve with a supernodal `L L^T` factor, a loop of our own over its supernodes.
 
 use faer::sparse::linalg::cholesky::supernodal::SymbolicSupernodalCholesky;
+use faer::Index;
 
 /// Solve `L L^T x = b` in place on the supernodal factor `l`, supernode by supernode: a
 /// dense triangular solve of its diagonal block and a matrix-vector product with the rows
@@ -12,8 +13,8 @@ use faer::sparse::linalg::cholesky::supernodal::SymbolicSupernodalCholesky;
 /// columns' products with the rows below are summed four columns at a time, each sum in the
 /// order one column alone makes it (the same values to the last bit), so that the four sums
 /// overlap instead of waiting on each other's additions.
-pub(super) fn solve_llt(
-    symbolic: &SymbolicSupernodalCholesky<usize>,
+pub(super) fn solve_llt<I: Index>(
+    symbolic: &SymbolicSupernodalCholesky<I>,
     l: &[f64],
     x: &mut [f64],
     (below, dots): (&mut Vec<f64>, &mut Vec<f64>),
@@ -27,10 +28,10 @@ pub(super) fn solve_llt(
     // Supernode `s`: its columns `start..start + size`, its column-major block of `height`
     // rows (the diagonal block, then the rows of `pattern`).
     let block = |s: usize| {
-        let (start, size) = (begin[s], end[s] - begin[s]);
-        let values = &l[val_ptr[s]..val_ptr[s + 1]];
+        let (start, size) = (begin[s].zx(), end[s].zx() - begin[s].zx());
+        let values = &l[val_ptr[s].zx()..val_ptr[s + 1].zx()];
         let height = values.len() / size;
-        let pattern = &rows[row_ptr[s]..row_ptr[s] + height - size];
+        let pattern = &rows[row_ptr[s].zx()..row_ptr[s].zx() + height - size];
         (start, size, height, values, pattern)
     };
     for s in 0..symbolic.n_supernodes() {
@@ -52,13 +53,13 @@ pub(super) fn solve_llt(
             }
         }
         for (&i, b) in pattern.iter().zip(below.iter()) {
-            x[i] -= b;
+            x[i.zx()] -= b;
         }
     }
     for s in (0..symbolic.n_supernodes()).rev() {
         let (start, size, height, values, pattern) = block(s);
         below.clear();
-        below.extend(pattern.iter().map(|&i| x[i]));
+        below.extend(pattern.iter().map(|&i| x[i.zx()]));
         dots.clear();
         let below_of = |j: usize| &values[j * height + size..(j + 1) * height];
         let mut j = 0;
