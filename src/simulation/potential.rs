@@ -34,15 +34,27 @@ const LOOSE_CONTACTS: usize = 3;
 
 /// One contact's shear force in [`Potential::balance_rotations`] as a function of the shear
 /// made, `clamp(trial - stiffness s, -limit, limit)`, and the grains it turns (`b`, and `a`
-/// unless it is a wall).
+/// unless it is a wall: then [`NO_GRAIN`]), in 32 bits as the pattern's indices are.
 #[derive(Debug, Clone, Copy)]
 struct Shear {
     trial: f64,
     stiffness: f64,
     limit: f64,
-    grains: (usize, Option<usize>),
+    grains: [u32; 2],
     /// The shear force's arms about the grains, in the same order.
     levers: (f64, f64),
+}
+
+/// A [`Shear`]'s second grain where its contact is with a wall.
+const NO_GRAIN: u32 = u32::MAX;
+
+impl Shear {
+    /// The grains it turns.
+    fn turned(&self) -> impl Iterator<Item = usize> + '_ {
+        (self.grains.iter())
+            .filter(|&&g| g != NO_GRAIN)
+            .map(|&g| g as usize)
+    }
 }
 
 /// What [`Potential::balance_rotations`] keeps between calls, so that it allocates nothing:
@@ -51,8 +63,8 @@ struct Shear {
 #[derive(Debug, Default)]
 pub struct RotationScratch {
     shears: Vec<Shear>,
-    first: Vec<usize>,
-    members: Vec<usize>,
+    first: Vec<u32>,
+    members: Vec<u32>,
     turning: Vec<(f64, f64, f64, f64)>,
     kinks: Vec<f64>,
 }
@@ -390,19 +402,20 @@ impl Potential for IncrementEquations<'_> {
             let k = kinematics(c.pair, self.grains, self.walls, self.q);
             let s = k.shear_increment - c.shear_offset;
             let a = match c.pair.a {
-                Side::Grain(a) => Some(a),
-                Side::Wall(_) => None,
+                Side::Grain(a) => a as u32,
+                Side::Wall(_) => NO_GRAIN,
             };
-            shears.push(Shear {
+            let shear = Shear {
                 trial: c.shear_force0 + c.lag.shear_stiffness * s,
                 stiffness: c.lag.shear_stiffness,
                 limit: c.lag.limit,
-                grains: (c.pair.b, a),
+                grains: [c.pair.b as u32, a],
                 levers: (k.lever_b, k.lever_a),
-            });
-            for g in std::iter::once(c.pair.b).chain(a) {
+            };
+            for g in shear.turned() {
                 first[g + 1] += 1;
             }
+            shears.push(shear);
         }
         // Each grain's contacts, in the contacts' order: `members[first[g]..first[g + 1]]`
         // (counted above, each grain's start moved along as its contacts are placed).
@@ -411,17 +424,17 @@ impl Potential for IncrementEquations<'_> {
             first[g + 1] += first[g];
         }
         members.clear();
-        members.resize(first[n], 0);
+        members.resize(first[n] as usize, 0);
         for (at, c) in shears.iter().enumerate() {
-            for g in std::iter::once(c.grains.0).chain(c.grains.1) {
-                members[first[g]] = at;
+            for g in c.turned() {
+                members[first[g] as usize] = at as u32;
                 first[g] += 1;
             }
         }
         first.copy_within(0..n, 1);
         first[0] = 0;
         for g in 0..n {
-            let list = &members[first[g]..first[g + 1]];
+            let list = &members[first[g] as usize..first[g + 1] as usize];
             if list.is_empty() || self.dofs.glue[g].is_some() {
                 continue;
             }
@@ -429,7 +442,7 @@ impl Potential for IncrementEquations<'_> {
             // its arm about the grain. Its contacts' trial force, `k l`, `l` and limit side by
             // side, as it is evaluated often.
             let lever = |c: &Shear| {
-                if c.grains.0 == g {
+                if c.grains[0] as usize == g {
                     c.levers.0
                 } else {
                     c.levers.1
@@ -437,7 +450,7 @@ impl Potential for IncrementEquations<'_> {
             };
             turning.clear();
             turning.extend(list.iter().map(|&i| {
-                let c = &shears[i];
+                let c = &shears[i as usize];
                 let l = lever(c);
                 (c.trial, c.stiffness * l, l, c.limit)
             }));
@@ -456,7 +469,7 @@ impl Potential for IncrementEquations<'_> {
             let width = list
                 .iter()
                 .map(|&i| {
-                    let c = &shears[i];
+                    let c = &shears[i as usize];
                     if c.stiffness > 0.0 && c.limit.is_finite() {
                         (c.trial.abs() + c.limit) / (c.stiffness * lever(c))
                     } else {
@@ -495,7 +508,7 @@ impl Potential for IncrementEquations<'_> {
             }
             u[self.dofs.grain(g) + 2] += d;
             for &i in list {
-                let c = &mut shears[i];
+                let c = &mut shears[i as usize];
                 c.trial -= c.stiffness * lever(c) * d;
             }
         }
