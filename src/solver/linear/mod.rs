@@ -84,9 +84,10 @@ struct Cholesky<I: Index> {
 }
 
 /// A pattern's Cholesky in the word its factor needs. faer indexes the factor's values in
-/// the word of the matrix's indices, and a factor fills in to many times the pattern's
-/// entries: in 32 bits while it holds fewer than 2^32 values (some 7 million grains of a
-/// crystal), which halves the indices of the analysis, and in the machine's word past that.
+/// the word of the matrix's indices, below that word's signed maximum, and a factor fills in
+/// to many times the pattern's entries: in 32 bits while it holds fewer than 2^31 values
+/// (some 3.5 million grains of a crystal), which halves the indices of the analysis, and in
+/// the machine's word past that.
 enum Analysis {
     Narrow(Box<Cholesky<u32>>),
     Wide(Box<Cholesky<usize>>),
@@ -104,7 +105,7 @@ macro_rules! with_cholesky {
 
 impl Analysis {
     /// The Cholesky of `pattern` (both triangles stored) in the fill-reducing `ordering`: in
-    /// the pattern's own 32 bits, or, where the factor would hold 2^32 values or more, in a
+    /// the pattern's own 32 bits, or, where the factor would hold 2^31 values or more, in a
     /// copy of it in the machine's word.
     fn of(
         pattern: &SymbolicSparseColMat<u32>,
@@ -250,7 +251,7 @@ impl<I: Index> Cholesky<I> {
     }
 
     /// Solve `L L^T x = b` in place with `factor`.
-    fn solve_llt(&mut self, factor: &[f64], rhs: &mut [f64]) {
+    fn solve(&mut self, factor: &[f64], rhs: &mut [f64]) {
         let (forward, inverse) = order(&self.symbolic);
         for (w, &dof) in self.work.iter_mut().zip(forward) {
             *w = rhs[dof.zx()];
@@ -528,7 +529,7 @@ impl LinearSolver {
     pub fn solve_in_place(&mut self, rhs: &mut [f64], stats: &mut SolverStats) {
         let start = Instant::now();
         if let Some(analysis) = &mut self.cholesky {
-            with_cholesky!(analysis, c => c.solve_llt(&self.factor, rhs));
+            with_cholesky!(analysis, c => c.solve(&self.factor, rhs));
         }
         stats.counters.solves += 1;
         stats.timers.solve += secs(start);
@@ -810,8 +811,8 @@ pub(super) mod tests {
                 ordering.is_some()
             );
             let (mut x, mut y) = (rhs.clone(), rhs.clone());
-            narrow.solve_llt(&factor, &mut x);
-            wide.solve_llt(&wide_factor, &mut y);
+            narrow.solve(&factor, &mut x);
+            wide.solve(&wide_factor, &mut y);
             assert_eq!(bits(&x), bits(&y), "METIS: {}", ordering.is_some());
             assert!(x.iter().all(|v| v.is_finite()));
         }
