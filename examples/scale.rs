@@ -1,14 +1,18 @@
 //! How time and memory grow with the number of grains: one sandstone crystal per size
 //! (`samples::crystal_of_about`, table 8, between four walls), set up, then its first load
 //! increment and a short run of three more, each size in a process of its own so that its peak
-//! memory is its own. Prints three markdown tables: time and memory by size, where the time
-//! of the four increments went, stage by stage, beside the time of one factorisation, and
-//! what the simulation holds at the end by part (`Simulation::memory_by_part`) beside the
-//! process's peak.
+//! memory is its own. Prints three markdown tables: time and memory by size, with each
+//! increment's time and Newton iterations, where the time of the four increments went, stage
+//! by stage, beside the time of one factorisation, and what the simulation holds at the end
+//! by part (`Simulation::memory_by_part`) beside the process's peak. The first increment
+//! starts from first touch and the third is the first of the second stage; the second and
+//! fourth are loaded increments as a long run has most of. `--no-indicator` turns the
+//! stability indicator off (its own factorisation each increment).
 //!
 //!     cargo run --release --example scale -- 1000 10000 100000 1000000
 //!     cargo run --release --example scale -- --threads 2 10000 100000
 //!     cargo run --release --example scale -- --ordering metis 10000 100000
+//!     cargo run --release --example scale -- --no-indicator 100000
 //!
 //! Crystals are built in milliseconds; a prepared sample of a million grains is not. A
 //! crystal has three contacts per grain against the four of a dense prepared sample.
@@ -45,13 +49,20 @@ fn main() {
     let Ok(fill) = toml::Value::String(ordering.clone()).try_into::<FillOrdering>() else {
         usage()
     };
+    let indicator = match args.iter().position(|a| a == "--no-indicator") {
+        Some(at) => {
+            args.remove(at);
+            false
+        }
+        None => true,
+    };
     if args.first().map(String::as_str) == Some("--one") {
         let grains = args.get(1).and_then(|n| n.parse().ok()).unwrap_or(1000);
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads.max(1))
             .build()
             .expect("the thread pool");
-        let (size, stages, parts) = pool.install(|| measure(grains, threads, fill));
+        let (size, stages, parts) = pool.install(|| measure(grains, threads, fill, indicator));
         println!("{size}\n{stages}\n{parts}");
         return;
     }
@@ -66,7 +77,11 @@ fn main() {
     let me = std::env::current_exe().expect("the example's own path");
     let (mut rows, mut parts) = (Vec::new(), Vec::new());
     for grains in sizes {
-        let out = Command::new(&me)
+        let mut command = Command::new(&me);
+        if !indicator {
+            command.arg("--no-indicator");
+        }
+        let out = command
             .args([
                 "--threads",
                 &threads.to_string(),
@@ -93,10 +108,10 @@ fn main() {
         parts.push((grains, lines.next().unwrap_or_default()));
     }
     println!(
-        "| grains | unknowns | contacts | factor entries | set-up (s) | first increment (s) | \
-         Newton iterations | next {SHORT_RUN} increments (s) | peak memory (MB) |"
+        "| grains | unknowns | contacts | factor entries | set-up (s) | each increment: s \
+         (Newton iterations, factorisations in s) | peak memory (MB) |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|");
     for (size, _) in &rows {
         println!("{size}");
     }
@@ -145,21 +160,28 @@ fn print_parts(sizes: &[(usize, String)]) {
 
 fn usage() -> ! {
     eprintln!(
-        "usage: scale [--threads N] [--ordering auto|amd|metis] [GRAINS ...]  (whole numbers)"
+        "usage: scale [--threads N] [--ordering auto|amd|metis] [--no-indicator] [GRAINS ...]  \
+         (whole numbers)"
     );
     std::process::exit(2);
 }
 
 /// The two table rows for the crystal of about `grains` grains
-/// ([`samples::crystal_of_about`]), run on `threads` threads with the Cholesky in `ordering`,
-/// and what its simulation holds at the end by part, with their sum and the peak, as
-/// `name=bytes;...` after the grains.
-fn measure(grains: usize, threads: usize, ordering: FillOrdering) -> (String, String, String) {
+/// ([`samples::crystal_of_about`]), run on `threads` threads with the Cholesky in `ordering`
+/// and the stability indicator on or off, and what its simulation holds at the end by part,
+/// with their sum and the peak, as `name=bytes;...` after the grains.
+fn measure(
+    grains: usize,
+    threads: usize,
+    ordering: FillOrdering,
+    stability_indicator: bool,
+) -> (String, String, String) {
     let scene = samples::crystal_of_about(grains);
     let start = Instant::now();
     let built = build_grains(&scene.grains, Path::new("."), "scale").expect("crystal");
     let config = SolverConfig {
         ordering,
+        stability_indicator,
         ..SolverConfig::default()
     };
     let mut sim = Simulation::new(&scene, built, config, "scale").expect("set-up");
@@ -167,27 +189,32 @@ fn measure(grains: usize, threads: usize, ordering: FillOrdering) -> (String, St
 
     // The stages of the increments alone, not of the set-up.
     let before = sim.stats;
-    let start = Instant::now();
-    let first = sim.run_increment().expect("first increment");
-    let first_time = start.elapsed().as_secs_f64();
-    let start = Instant::now();
-    for _ in 0..SHORT_RUN {
-        sim.run_increment().expect("short run");
+    let mut each = Vec::new();
+    let mut whole = 0.0;
+    for _ in 0..=SHORT_RUN {
+        let (start, at) = (Instant::now(), sim.stats);
+        let report = sim.run_increment().expect("an increment");
+        let time = start.elapsed().as_secs_f64();
+        whole += time;
+        let made = sim.stats.counters.numeric_factorisations - at.counters.numeric_factorisations;
+        let took = sim.stats.timers.factorisation - at.timers.factorisation;
+        each.push(format!(
+            "{time:.2} ({}, {made} in {took:.2})",
+            report.newton_iterations
+        ));
     }
-    let short = start.elapsed().as_secs_f64();
     let size = format!(
-        "| {} | {} | {} | {} | {setup:.2} | {first_time:.2} | {} | {short:.2} | {:.0} |",
+        "| {} | {} | {} | {} | {setup:.2} | {} | {:.0} |",
         sim.state.grains.len(),
         sim.dofs().len,
         sim.state.contacts.contacts.len(),
         sim.factor_entries(),
-        first.newton_iterations,
+        each.join(", "),
         peak_memory_mb()
     );
     let (t, t0) = (sim.stats.timers, before.timers);
     let factorisations =
         sim.stats.counters.numeric_factorisations - before.counters.numeric_factorisations;
-    let whole = first_time + short;
     let increments = (SHORT_RUN + 1) as f64;
     let one_factorisation = (t.factorisation - t0.factorisation) / factorisations.max(1) as f64;
     let stages = format!(

@@ -575,6 +575,7 @@ impl Simulation {
             chain_changes = eq.chain_changes;
             self.take_back(stats, timers, values);
             self.linear = linear;
+            work.release_consistent();
             self.minimise_work = work;
             let outcome = result?;
             settings.lambda_start = if outcome.at_reach {

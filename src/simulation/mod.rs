@@ -544,7 +544,7 @@ impl Simulation {
     fn install_pattern(&mut self) -> Result<(), NumericError> {
         // The old pattern's values go first, so that the two patterns' are not held at once.
         self.values = Vec::new();
-        self.minimise_work.release_pattern_sized();
+        self.minimise_work.release_consistent();
         let links: Vec<(usize, usize)> = self.chains.iter().flat_map(Chain::links).collect();
         let pattern = Pattern::build(&self.friends, &self.dofs, &self.state.walls, &links);
         let (old, new) = (&self.pattern.symbolic, &pattern.symbolic);
@@ -555,7 +555,8 @@ impl Simulation {
         self.pattern = Arc::new(pattern);
         self.values = vec![0.0; self.pattern.nnz()];
         if same {
-            self.linear.invalidate();
+            // The analysis stays, and so does the factor, of a matrix on the same unknowns:
+            // the tangent the stability indicator left for the next first step among them.
             self.index_pairs()
         } else {
             self.analyse_pattern()

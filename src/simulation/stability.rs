@@ -26,6 +26,10 @@ impl Simulation {
     /// congruence, so the count is the same), and pivots above `-PIVOT_THRESHOLD` count as
     /// zero: rattlers and free rotations leave the tangent singular, and round-off must not
     /// make them negative. `None` when turned off, or when the factorisation fails.
+    ///
+    /// Where every pivot of `K` is above the threshold (positive definite: no rattler, free
+    /// rotation or softening), its factor is kept for the next minimisation's first step
+    /// ([`crate::solver::LinearSolver::hold_as_tangent`]).
     pub(super) fn negative_pivots(&mut self, step: &LoadStep, u: &[f64]) -> Option<usize> {
         if !self.config.stability_indicator {
             return None;
@@ -40,9 +44,9 @@ impl Simulation {
             }
         }
         freed.follow(&self.state.grains, &self.state.walls, &step.turn);
-        // The consistent tangent's storage, free between minimisations, holds the tangent.
+        // The Hessian's storage, free once the minimisation is done, holds the tangent.
         let pattern = Arc::clone(&self.pattern);
-        let mut values = std::mem::take(&mut self.minimise_work.consistent);
+        let mut values = std::mem::take(&mut self.values);
         values.clear();
         values.resize(pattern.nnz(), 0.0);
         let mut residual = vec![0.0; self.dofs.len];
@@ -99,9 +103,12 @@ impl Simulation {
                         .collect()
                 })
                 .collect();
+            // Positive definite on the minimisation's unknowns, the factor is the next
+            // minimisation's first Newton matrix.
+            self.linear.hold_as_tangent(scale);
             Some(in_grains + dense_negative_pivots(schur, PIVOT_THRESHOLD))
         });
-        self.minimise_work.consistent = values;
+        self.values = values;
         count
     }
 }

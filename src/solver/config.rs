@@ -72,7 +72,8 @@ pub struct SolverConfig {
     pub lambda_min: f64,
     /// Count the negative pivots of an `L D L^T` of the symmetric tangent at each converged
     /// increment (the stability indicator): one more numeric factorisation per increment, in
-    /// the minimisation's pattern and analysis. Default on.
+    /// the minimisation's pattern and analysis, which the next increment's first step solves
+    /// with where the tangent is positive definite (until the state is written). Default on.
     #[serde(default = "yes")]
     pub stability_indicator: bool,
     /// The Cholesky's fill-reducing ordering: `"amd"` (faer's approximate minimum degree),

@@ -3,8 +3,9 @@
 //!
 //! Each iteration evaluates every friends-list pair, so contacts are made and lost wherever
 //! the iterate puts them, any number per iteration; factorises the projected (positive
-//! semi-definite) Hessian once with the sparse Cholesky; and backtracks along the step until
-//! the potential falls. The friction of each contact is a convex potential with its normal
+//! semi-definite) Hessian once with the sparse Cholesky (the first step solves instead with
+//! the positive definite tangent the last stability indicator factorised, where it is held);
+//! and backtracks along the step until the potential falls. The friction of each contact is a convex potential with its normal
 //! force and shear stiffness lagged: refrozen after every step far from the answer, and near
 //! it once the lagged problem is solved to a share of the true residual (an inexact inner
 //! solve; refreezing after every step there can cycle).
@@ -37,7 +38,9 @@ pub struct SystemMatrix<'a> {
 /// The minimisation's work vectors, kept from one minimisation to the next so that, once
 /// grown to the system's size, none is allocated again: from some 25,000 grains a vector of
 /// the pattern's size (32 MB and more) is a fresh mapping of memory each time it is
-/// allocated, every page of it zeroed by the system as it is first written.
+/// allocated, every page of it zeroed by the system as it is first written. The consistent
+/// tangent's alone is made once a minimisation that takes semi-smooth steps, and freed at
+/// its end.
 #[derive(Debug, Default)]
 pub struct MinimiseWork {
     residual: Vec<f64>,
@@ -49,19 +52,22 @@ pub struct MinimiseWork {
     /// The regularisation of the consistent tangent in a semi-smooth step.
     regularised: Vec<f64>,
     /// The consistent tangent's values in a semi-smooth step, put in the order by rows for
-    /// GMRES's products. Free between minimisations: other evaluations of a tangent in a
-    /// pattern (the stability indicator's) use it then.
-    pub consistent: Vec<f64>,
+    /// GMRES's products: made by a minimisation's first semi-smooth step and freed at its
+    /// end ([`MinimiseWork::release_consistent`]).
+    consistent: Vec<f64>,
     /// Each row's next place by rows, while the consistent tangent is put in that order.
     row_cursors: Vec<u32>,
     gmres: krylov::Gmres,
 }
 
 impl MinimiseWork {
-    /// Free the vector of the pattern's size (the consistent tangent's) before a new pattern
-    /// is made: the next use makes it at the new size, and the old and new are not held at
-    /// once.
-    pub fn release_pattern_sized(&mut self) {
+    /// Free the vector of the pattern's size (the consistent tangent's), after a minimisation
+    /// and before a new pattern is made: the next semi-smooth step makes it again, at the
+    /// pattern's size then. Held between minimisations it would be held through the
+    /// factorisations of the lagged steps and of the stability indicator (503 MB at a
+    /// million grains); made once a minimisation, it costs a fresh mapping of memory there,
+    /// against the factorisations' seconds.
+    pub fn release_consistent(&mut self) {
         self.consistent = Vec::new();
     }
 
@@ -463,8 +469,13 @@ pub fn minimise(
         // of an earlier iterate of this minimisation serves there: near the answer the
         // Hessian changes little from step to step.
         let stale = semismooth && factored;
+        // The first step solves with the tangent at the last equilibrium where the stability
+        // indicator left its factor, positive definite: a Newton step made without a
+        // factorisation of its own, and without the Levenberg-Marquardt shift, there being no
+        // soft mode to hold back. Any later step factorises its own Hessian.
+        let on_tangent = out.iterations == 1 && linear.holds_tangent();
         let lm = lambda.max(settings.lambda_min);
-        if !stale {
+        if !stale && !on_tangent {
             let a = SparseColMatRef::new(symbolic.as_ref(), values);
             let made = factorize_hessian(eq, a, diagonal, lm, shift, linear, stats);
             factored = made.is_ok();

@@ -14,7 +14,10 @@
 //! indicator is taken once a minimisation has converged, and the next one factorises anew,
 //! so the two factors are never needed at once and only one is ever held. The `L D L^T`
 //! then solves ([`LinearSolver::solve_ldlt_in_place`]) for the indicator's walls, freed
-//! (a Schur complement), so that a run holds one pattern, one analysis and one factor.
+//! (a Schur complement), so that a run holds one pattern, one analysis and one factor. Where
+//! it is positive definite it is kept as a factor of the tangent at that equilibrium
+//! ([`LinearSolver::hold_as_tangent`]), and the next minimisation's first step solves with it
+//! instead of factorising.
 
 mod ordering;
 mod supernodal_solve;
@@ -210,14 +213,15 @@ impl<I: Index> Cholesky<I> {
     }
 
     /// Numeric factorisation of `a` into `factor`: `L D L^T`, its pivots within `threshold`
-    /// of zero set to `+-threshold`; the pivots below `-threshold` counted.
+    /// of zero set to `+-threshold`; the pivots below `-threshold`, and those within
+    /// `threshold` of zero, counted.
     fn factorize_ldlt(
         &mut self,
         a: &[f64],
         threshold: f64,
         factor: &mut Vec<f64>,
         (par, scratch): (Par, &mut MemBuffer),
-    ) -> Result<usize, NotFactorizable> {
+    ) -> Result<(usize, usize), NotFactorizable> {
         self.gather(a, &[]);
         factor.resize(self.symbolic.len_val(), 0.0);
         let regularization = LdltRegularization {
@@ -240,14 +244,16 @@ impl<I: Index> Cholesky<I> {
             supernodes(&self.symbolic),
             &factor[..self.symbolic.len_val()],
         );
-        Ok((0..factor.symbolic().n_supernodes())
-            .map(|k| {
-                let block = factor.supernode(k).val();
-                (0..block.ncols())
-                    .filter(|&j| block[(j, j)] < -threshold)
-                    .count()
-            })
-            .sum())
+        let (mut negative, mut zero) = (0, 0);
+        for k in 0..factor.symbolic().n_supernodes() {
+            let block = factor.supernode(k).val();
+            for j in 0..block.ncols() {
+                let pivot = block[(j, j)];
+                negative += usize::from(pivot < -threshold);
+                zero += usize::from(pivot.abs() <= threshold);
+            }
+        }
+        Ok((negative, zero))
     }
 
     /// Solve `L L^T x = b` in place with `factor`.
@@ -393,6 +399,9 @@ enum Factor {
     Llt,
     /// The `L D L^T` of the last [`LinearSolver::negative_pivots`].
     Ldlt,
+    /// That `L D L^T`, positive definite, kept as a factor of the tangent it was made of
+    /// ([`LinearSolver::hold_as_tangent`]).
+    Tangent,
 }
 
 /// A sparse Cholesky solver with its symbolic factorisation and buffers kept.
@@ -406,6 +415,11 @@ pub struct LinearSolver {
     /// The factor's values: the `L L^T` solved with, or the stability indicator's `L D L^T`.
     /// Sized when first factorised into.
     factor: Vec<f64>,
+    /// Whether the last `L D L^T` had all its pivots above its threshold.
+    definite: bool,
+    /// The scale `S` of the tangent `K` whose `S K S` the `L D L^T` held as
+    /// [`Factor::Tangent`] factorises.
+    tangent_scale: Vec<f64>,
 }
 
 impl Default for LinearSolver {
@@ -430,6 +444,8 @@ impl LinearSolver {
             scratch: MemBuffer::new(StackReq::EMPTY),
             holds: Factor::Nothing,
             factor: Vec::new(),
+            definite: false,
+            tangent_scale: Vec::new(),
         }
     }
 
@@ -506,13 +522,17 @@ impl LinearSolver {
     }
 
     /// Bytes it holds: the analysis (the matrix in its order, its map and values, the
-    /// symbolic factor and its order, the work vectors), and the factor's values. The
+    /// symbolic factor and its order, the work vectors), and the factor's values (with the
+    /// scale of a tangent held). The
     /// factorisation's scratch is not counted: faer reserves it, and touches what the
     /// largest supernode needs.
     pub fn heap_bytes(&self) -> (usize, usize) {
         let analysis =
             (self.cholesky.as_ref()).map_or(0, |a| with_cholesky!(a, c => c.heap_bytes()));
-        (analysis, self.factor.heap_bytes())
+        (
+            analysis,
+            self.factor.heap_bytes() + self.tangent_scale.heap_bytes(),
+        )
     }
 
     /// Whether a pattern has been analysed.
@@ -525,11 +545,24 @@ impl LinearSolver {
         self.holds == Factor::Llt
     }
 
-    /// Solve `A x = b` in place (`rhs` holds `b` on entry and `x` on return).
+    /// Solve `A x = b` in place (`rhs` holds `b` on entry and `x` on return), `A` the matrix
+    /// of the last factorisation, or the tangent held by [`LinearSolver::hold_as_tangent`].
     pub fn solve_in_place(&mut self, rhs: &mut [f64], stats: &mut SolverStats) {
         let start = Instant::now();
-        if let Some(analysis) = &mut self.cholesky {
-            with_cholesky!(analysis, c => c.solve(&self.factor, rhs));
+        match (&mut self.cholesky, self.holds) {
+            (Some(analysis), Factor::Tangent) => {
+                // `K^-1 = S (S K S)^-1 S`.
+                let scale = |rhs: &mut [f64]| {
+                    for (r, s) in rhs.iter_mut().zip(&self.tangent_scale) {
+                        *r *= s;
+                    }
+                };
+                scale(rhs);
+                with_cholesky!(analysis, c => c.solve_ldlt(&self.factor, rhs, 1, self.par));
+                scale(rhs);
+            }
+            (Some(analysis), _) => with_cholesky!(analysis, c => c.solve(&self.factor, rhs)),
+            (None, _) => {}
         }
         stats.counters.solves += 1;
         stats.timers.solve += secs(start);
@@ -552,15 +585,34 @@ impl LinearSolver {
             return Err(NotFactorizable("no symbolic factorisation".into()));
         };
         let work = (self.par, &mut self.scratch);
-        let count = with_cholesky!(analysis, c => {
+        let counts = with_cholesky!(analysis, c => {
             c.factorize_ldlt(matrix.val(), threshold, &mut self.factor, work)
         });
         stats.counters.numeric_factorisations += 1;
         stats.timers.factorisation += secs(start);
-        if count.is_ok() {
-            self.holds = Factor::Ldlt;
+        let (negative, zero) = counts?;
+        self.holds = Factor::Ldlt;
+        self.definite = negative == 0 && zero == 0;
+        Ok(negative)
+    }
+
+    /// Keep the `L D L^T` of the last [`LinearSolver::negative_pivots`], of `S K S` with
+    /// `S = diag(scale)`, as a factor of the tangent `K` for [`LinearSolver::solve_in_place`],
+    /// where it is positive definite (every pivot above its threshold: no rattler or free
+    /// rotation, no softening). Returns whether it is kept; the next factorisation replaces it.
+    pub fn hold_as_tangent(&mut self, scale: Vec<f64>) -> bool {
+        if self.holds != Factor::Ldlt || !self.definite {
+            return false;
         }
-        count
+        self.tangent_scale = scale;
+        self.holds = Factor::Tangent;
+        true
+    }
+
+    /// Whether it holds a factor of the tangent at an equilibrium
+    /// ([`LinearSolver::hold_as_tangent`]).
+    pub fn holds_tangent(&self) -> bool {
+        self.holds == Factor::Tangent
     }
 
     /// Solve `A X = B` in place with the `L D L^T` of the last
@@ -584,267 +636,4 @@ impl LinearSolver {
 }
 
 #[cfg(test)]
-pub(super) mod tests {
-    use super::*;
-    use faer::sparse::{SparseColMat, Triplet};
-    use faer::{Conj, MatMut};
-
-    /// The Dirichlet Laplacian of an `n` x `n` grid shifted by `-shift` (full storage), and
-    /// how many of its eigenvalues, `4 - 2 cos(i pi / (n + 1)) - 2 cos(j pi / (n + 1))`, are
-    /// below the shift.
-    pub(super) fn shifted_laplacian(n: usize, shift: f64) -> (SparseColMat<u32, f64>, usize) {
-        let index = |i: usize, j: usize| (i * n + j) as u32;
-        let mut entries = Vec::new();
-        for i in 0..n {
-            for j in 0..n {
-                entries.push(Triplet::new(index(i, j), index(i, j), 4.0 - shift));
-                if i + 1 < n {
-                    entries.push(Triplet::new(index(i, j), index(i + 1, j), -1.0));
-                    entries.push(Triplet::new(index(i + 1, j), index(i, j), -1.0));
-                }
-                if j + 1 < n {
-                    entries.push(Triplet::new(index(i, j), index(i, j + 1), -1.0));
-                    entries.push(Triplet::new(index(i, j + 1), index(i, j), -1.0));
-                }
-            }
-        }
-        let matrix = SparseColMat::try_new_from_triplets(n * n, n * n, &entries).unwrap();
-        let mode = |k: usize| 2.0 - 2.0 * (k as f64 * std::f64::consts::PI / (n + 1) as f64).cos();
-        let below = (1..=n)
-            .flat_map(|i| (1..=n).map(move |j| mode(i) + mode(j)))
-            .filter(|&lambda| lambda < shift)
-            .count();
-        (matrix, below)
-    }
-
-    #[test]
-    fn negative_pivots_count_the_negative_eigenvalues() {
-        let mut stats = SolverStats::default();
-        for (n, shift) in [(6, 0.0), (6, 1.3), (6, 5.1), (250, 0.1), (250, 4.4)] {
-            let (matrix, below) = shifted_laplacian(n, shift);
-            let mut solver = LinearSolver::new();
-            solver
-                .analyse(&matrix.symbolic().to_owned().unwrap(), &mut stats)
-                .unwrap();
-            let counted = solver
-                .negative_pivots(matrix.as_ref(), 1e-10, &mut stats)
-                .unwrap();
-            assert_eq!(counted, below, "grid {n} x {n} shifted by {shift}");
-            assert!(below > 0 || shift == 0.0);
-            // The indefinite factor solves as well as it counts.
-            let b: Vec<f64> = (0..n * n).map(|i| (i % 7) as f64 - 3.0).collect();
-            let mut x = b.clone();
-            solver.solve_ldlt_in_place(&mut x, 1, &mut stats).unwrap();
-            let mut ax = vec![0.0; n * n];
-            for (j, xj) in x.iter().enumerate() {
-                for (i, v) in matrix.row_idx_of_col(j).zip(matrix.val_of_col(j)) {
-                    ax[i] += v * xj;
-                }
-            }
-            let misfit = ax
-                .iter()
-                .zip(&b)
-                .map(|(a, b)| (a - b).abs())
-                .fold(0.0, f64::max);
-            assert!(
-                misfit < 1e-9,
-                "grid {n} x {n} shifted by {shift}: {misfit:e}"
-            );
-            // Two right-hand sides at once, each as it is alone (to round-off).
-            let mut two: Vec<f64> = b.iter().chain(b.iter().rev()).copied().collect();
-            solver.solve_ldlt_in_place(&mut two, 2, &mut stats).unwrap();
-            let mut reversed: Vec<f64> = b.iter().rev().copied().collect();
-            solver
-                .solve_ldlt_in_place(&mut reversed, 1, &mut stats)
-                .unwrap();
-            let alone = x.iter().chain(&reversed);
-            let size = alone.clone().fold(0.0, |m: f64, v| m.max(v.abs()));
-            let apart = two.iter().zip(alone).map(|(a, b)| (a - b).abs());
-            let worst = apart.fold(0.0, f64::max);
-            assert!(worst <= 1e-10 * size, "{n} {shift}: {worst:e} of {size:e}");
-        }
-        let mut solver = LinearSolver::new();
-        let (matrix, _) = shifted_laplacian(6, 0.0);
-        solver
-            .analyse(&matrix.symbolic().to_owned().unwrap(), &mut stats)
-            .unwrap();
-        solver.factorize(matrix.as_ref(), &mut stats).unwrap();
-        assert!(solver
-            .solve_ldlt_in_place(&mut [0.0; 36], 1, &mut stats)
-            .is_err());
-    }
-
-    #[test]
-    fn metis_order_solves_and_counts_as_amd_does() {
-        let mut stats = SolverStats::default();
-        for (n, shift) in [(30, 0.0), (30, 2.2)] {
-            let (matrix, below) = shifted_laplacian(n, shift);
-            let pattern = matrix.symbolic().to_owned().unwrap();
-            let rhs: Vec<f64> = (0..n * n).map(|i| (i % 7) as f64 - 3.0).collect();
-            let mut solutions = Vec::new();
-            for ordering in [FillOrdering::Amd, FillOrdering::Metis] {
-                let mut solver = LinearSolver::in_order(ordering);
-                solver.analyse(&pattern, &mut stats).unwrap();
-                let counted = solver
-                    .negative_pivots(matrix.as_ref(), 1e-10, &mut stats)
-                    .unwrap();
-                assert_eq!(counted, below, "{ordering:?}, shifted by {shift}");
-                if shift == 0.0 {
-                    solver.factorize(matrix.as_ref(), &mut stats).unwrap();
-                    let mut x = rhs.clone();
-                    solver.solve_in_place(&mut x, &mut stats);
-                    solutions.push(x);
-                }
-            }
-            if let [amd, metis] = solutions.as_slice() {
-                let scale = amd.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-                for (a, m) in amd.iter().zip(metis) {
-                    assert!((a - m).abs() <= 1e-12 * scale, "{a} against {m}");
-                }
-            }
-        }
-    }
-
-    #[test]
-    fn the_cholesky_and_its_solve_are_faers_own_in_supernodes() {
-        let mut stats = SolverStats::default();
-        for n in [6, 250] {
-            let (mut matrix, _) = shifted_laplacian(n, 0.0);
-            let pattern = matrix.symbolic().to_owned().unwrap();
-            let diagonal: Vec<usize> = (0..n * n)
-                .map(|j| {
-                    let start = pattern.col_ptr()[j] as usize;
-                    start
-                        + (pattern.row_idx_of_col_raw(j))
-                            .binary_search(&(j as u32))
-                            .unwrap()
-                })
-                .collect();
-            let shift: Vec<f64> = (0..n * n).map(|j| 0.1 * (j % 3) as f64).collect();
-            let rhs: Vec<f64> = (0..n * n).map(|i| (i % 7) as f64 - 3.0).collect();
-            let mut solver = LinearSolver::new();
-            solver.analyse(&pattern, &mut stats).unwrap();
-            solver
-                .factorize_shifted(matrix.as_ref(), &shift, &mut stats)
-                .unwrap();
-            let mut ours = rhs.clone();
-            solver.solve_in_place(&mut ours, &mut stats);
-
-            for (&slot, add) in diagonal.iter().zip(&shift) {
-                matrix.val_mut()[slot] += add;
-            }
-            let params = CholeskySymbolicParams {
-                supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
-                ..Default::default()
-            };
-            let faer = factorize_symbolic_cholesky(
-                pattern.as_ref(),
-                Side::Lower,
-                SymmetricOrdering::Amd,
-                params,
-            )
-            .unwrap();
-            let mut values = vec![0.0; faer.len_val()];
-            let mut scratch = MemBuffer::new(StackReq::any_of(&[
-                faer.factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default()),
-                faer.solve_in_place_scratch::<f64>(1, Par::Seq),
-            ]));
-            let factor = faer
-                .factorize_numeric_llt(
-                    &mut values,
-                    matrix.as_ref(),
-                    Side::Lower,
-                    LltRegularization::default(),
-                    Par::Seq,
-                    MemStack::new(&mut scratch),
-                    Default::default(),
-                )
-                .unwrap();
-            let mut theirs = rhs.clone();
-            factor.solve_in_place_with_conj(
-                Conj::No,
-                MatMut::from_column_major_slice_mut(&mut theirs, n * n, 1),
-                Par::Seq,
-                MemStack::new(&mut scratch),
-            );
-            // The factors are faer's; the solve sums in its own order.
-            let scale = theirs.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-            for (a, b) in ours.iter().zip(&theirs) {
-                assert!(
-                    (a - b).abs() <= 1e-13 * scale,
-                    "grid {n} x {n}: {a} against {b}"
-                );
-            }
-        }
-    }
-
-    #[test]
-    fn the_analysis_in_32_bits_factorises_and_solves_as_in_the_machines_word() {
-        let (matrix, _) = shifted_laplacian(40, 0.0);
-        let pattern = matrix.symbolic().to_owned().unwrap();
-        let shift: Vec<f64> = (0..1600).map(|j| 0.1 * (j % 3) as f64).collect();
-        let rhs: Vec<f64> = (0..1600).map(|i| (i % 7) as f64 - 3.0).collect();
-        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-        let dissected = nested_dissection(&pattern).unwrap();
-        for ordering in [None, Some(&dissected)] {
-            let mut narrow = Cholesky::analyse(&pattern, ordering).unwrap().unwrap();
-            let mut wide = Cholesky::analyse(&widened(&pattern), ordering)
-                .unwrap()
-                .unwrap();
-            let mut scratch = MemBuffer::new(narrow.scratch(Par::Seq));
-            let (mut factor, mut wide_factor) = (Vec::new(), Vec::new());
-            narrow
-                .factorize_llt(matrix.val(), &shift, &mut factor, (Par::Seq, &mut scratch))
-                .unwrap();
-            let mut scratch = MemBuffer::new(wide.scratch(Par::Seq));
-            wide.factorize_llt(
-                matrix.val(),
-                &shift,
-                &mut wide_factor,
-                (Par::Seq, &mut scratch),
-            )
-            .unwrap();
-            assert_eq!(
-                bits(&factor),
-                bits(&wide_factor),
-                "METIS: {}",
-                ordering.is_some()
-            );
-            let (mut x, mut y) = (rhs.clone(), rhs.clone());
-            narrow.solve(&factor, &mut x);
-            wide.solve(&wide_factor, &mut y);
-            assert_eq!(bits(&x), bits(&y), "METIS: {}", ordering.is_some());
-            assert!(x.iter().all(|v| v.is_finite()));
-        }
-    }
-
-    #[test]
-    fn a_large_system_is_solved_bit_for_bit_on_one_and_two_threads() {
-        let n = 320; // 102,400 unknowns, above PARALLEL_UNKNOWNS
-        let (matrix, _) = shifted_laplacian(n, 0.0);
-        let pattern = matrix.symbolic().to_owned().unwrap();
-        let solve = |threads| {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap();
-            pool.install(|| {
-                let mut stats = SolverStats::default();
-                let mut solver = LinearSolver::new();
-                solver.analyse(&pattern, &mut stats).unwrap();
-                assert_eq!(matches!(solver.par, Par::Rayon(_)), threads > 1);
-                solver.factorize(matrix.as_ref(), &mut stats).unwrap();
-                let mut x: Vec<f64> = (0..n * n).map(|i| (i % 7) as f64 - 3.0).collect();
-                solver.solve_in_place(&mut x, &mut stats);
-                x
-            })
-        };
-        let (one, two) = (solve(1), solve(2));
-        assert!(one.iter().all(|x| x.is_finite()));
-        let differ = one
-            .iter()
-            .zip(&two)
-            .filter(|(a, b)| a.to_bits() != b.to_bits());
-        assert_eq!(differ.count(), 0);
-    }
-}
+pub(super) mod tests;
