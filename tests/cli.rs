@@ -6,7 +6,7 @@ mod common;
 
 use common::{assert_input_error, crystal_scene, grainstat, stderr};
 use grainstat::output::{read_history, read_increments, read_state};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 #[test]
 fn bad_scene_files_are_exit_status_2_naming_key_and_line() {
@@ -120,90 +120,63 @@ fn cut_after(path: &Path, keep: usize) {
     }
 }
 
+/// Run the crystal of [`crystal_scene`] writing every `every`-th increment into `whole.h5`,
+/// copy the file cut after increment `keep`, resume it, and check that every increment after
+/// `keep` and `/history` (compared as printed, where NaN equals NaN and every digit counts)
+/// are the uninterrupted run's. Returns the scene and the uninterrupted run's file.
+fn resumed_as_uninterrupted(dir: &Path, every: usize, keep: usize) -> (PathBuf, PathBuf) {
+    let scene = crystal_scene(dir, every);
+    let (whole, resumed) = (dir.join("whole.h5"), dir.join("resumed.h5"));
+    let run = |flag: &str, file: &Path| {
+        let out = grainstat(&[
+            "run",
+            scene.to_str().unwrap(),
+            flag,
+            file.to_str().unwrap(),
+            "--quiet",
+        ]);
+        assert!(out.status.success(), "{}", stderr(&out));
+    };
+    run("-o", &whole);
+    std::fs::copy(&whole, &resumed).unwrap();
+    cut_after(&resumed, keep);
+    run("--resume", &resumed);
+    let increments = read_increments(&whole).unwrap();
+    assert_eq!(read_increments(&resumed).unwrap(), increments);
+    for &increment in increments.iter().filter(|&&k| k > keep) {
+        let (_, a) = read_state(&whole, increment).unwrap();
+        let (_, b) = read_state(&resumed, increment).unwrap();
+        assert!(a == b, "increment {increment} differs after resume");
+    }
+    let (a, b) = (
+        read_history(&whole).unwrap(),
+        read_history(&resumed).unwrap(),
+    );
+    assert_eq!(format!("{a:?}"), format!("{b:?}"));
+    (scene, whole)
+}
+
 /// Between writes a crystal's increment starts on the stability indicator's factor of the
 /// one before; a write drops it, so a run resumed from a written increment repeats the
 /// uninterrupted one that wrote every second increment.
 #[test]
 fn resume_reproduces_a_run_that_writes_every_second_increment() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = crystal_scene(dir.path(), 2);
-    let (whole, resumed) = (dir.path().join("whole.h5"), dir.path().join("resumed.h5"));
-    let out = grainstat(&[
-        "run",
-        scene.to_str().unwrap(),
-        "-o",
-        whole.to_str().unwrap(),
-    ]);
-    assert!(out.status.success(), "{}", stderr(&out));
-    std::fs::copy(&whole, &resumed).unwrap();
-    cut_after(&resumed, 2);
-    let resume = [
-        "run",
-        scene.to_str().unwrap(),
-        "--resume",
-        resumed.to_str().unwrap(),
-    ];
-    let out = grainstat(&resume);
-    assert!(out.status.success(), "{}", stderr(&out));
-    let increments = read_increments(&whole).unwrap();
-    assert_eq!(read_increments(&resumed).unwrap(), increments);
-    for &increment in increments.iter().filter(|&&k| k > 2) {
-        let (_, a) = read_state(&whole, increment).unwrap();
-        let (_, b) = read_state(&resumed, increment).unwrap();
-        assert!(a == b, "increment {increment} differs after resume");
-    }
-    let (a, b) = (
-        read_history(&whole).unwrap(),
-        read_history(&resumed).unwrap(),
-    );
-    assert_eq!(format!("{a:?}"), format!("{b:?}"));
+    resumed_as_uninterrupted(dir.path(), 2, 2);
 }
 
 #[test]
 fn resume_reproduces_the_uninterrupted_run() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = crystal_scene(dir.path(), 1);
-    let whole = dir.path().join("whole.h5");
-    let out = grainstat(&[
-        "run",
-        scene.to_str().unwrap(),
-        "-o",
-        whole.to_str().unwrap(),
-        "--quiet",
-    ]);
-    assert!(out.status.success(), "{}", stderr(&out));
-    let last = *read_increments(&whole).unwrap().last().unwrap();
-
-    let resumed = dir.path().join("resumed.h5");
-    std::fs::copy(&whole, &resumed).unwrap();
-    cut_after(&resumed, 3);
-    let out = grainstat(&[
-        "run",
-        scene.to_str().unwrap(),
-        "--resume",
-        resumed.to_str().unwrap(),
-        "--quiet",
-    ]);
-    assert!(out.status.success(), "{}", stderr(&out));
-    assert_eq!(
-        read_increments(&resumed).unwrap(),
-        read_increments(&whole).unwrap()
-    );
-    for increment in [4, last] {
-        let (_, a) = read_state(&whole, increment).unwrap();
-        let (_, b) = read_state(&resumed, increment).unwrap();
-        assert!(a == b, "increment {increment} differs after resume");
-    }
-    // So does `/history`, the regions' stresses and the rotations among it (compared as
-    // printed, where NaN equals NaN and every digit counts).
-    let (a, b) = (
-        read_history(&whole).unwrap(),
-        read_history(&resumed).unwrap(),
-    );
-    assert!(!a.region("region_stress_yy").is_empty());
-    assert_eq!(format!("{a:?}"), format!("{b:?}"));
+    let (scene, whole) = resumed_as_uninterrupted(dir.path(), 1, 3);
+    // The regions' stresses and the rotations are among the history compared.
+    assert!(!read_history(&whole)
+        .unwrap()
+        .region("region_stress_yy")
+        .is_empty());
 
     // Resuming with another scene, or from nothing, is bad input.
+    let resumed = dir.path().join("resumed.h5");
     let other = dir.path().join("other.toml");
     let text = std::fs::read_to_string(&scene)
         .unwrap()

@@ -5,10 +5,10 @@
 //! the iterate puts them, any number per iteration; factorises the projected (positive
 //! semi-definite) Hessian once with the sparse Cholesky (the first step solves instead with
 //! the positive definite tangent the last stability indicator factorised, where it is held);
-//! and backtracks along the step until the potential falls. The friction of each contact is a convex potential with its normal
-//! force and shear stiffness lagged: refrozen after every step far from the answer, and near
-//! it once the lagged problem is solved to a share of the true residual (an inexact inner
-//! solve; refreezing after every step there can cycle).
+//! and backtracks along the step until the potential falls. The friction of each contact is
+//! a convex potential with its normal force and shear stiffness lagged: refrozen after every
+//! step far from the answer, and near it once the lagged problem is solved to a share of the
+//! true residual (an inexact inner solve; refreezing after every step there can cycle).
 //! Convergence is tested on the residual of a refrozen evaluation, which is the true,
 //! unlagged one. Near the answer the grain the step leaves worst is balanced exactly on its
 //! own ([`Potential::balance_grain`]), and where the lag stalls, semi-smooth Newton steps

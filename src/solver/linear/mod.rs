@@ -540,11 +540,6 @@ impl LinearSolver {
         self.cholesky.is_some()
     }
 
-    /// Whether a factorisation is ready for solves.
-    pub fn is_factorized(&self) -> bool {
-        self.holds == Factor::Llt
-    }
-
     /// Solve `A x = b` in place (`rhs` holds `b` on entry and `x` on return), `A` the matrix
     /// of the last factorisation, or the tangent held by [`LinearSolver::hold_as_tangent`].
     pub fn solve_in_place(&mut self, rhs: &mut [f64], stats: &mut SolverStats) {
