@@ -32,6 +32,7 @@ const MB: f64 = 1024.0 * 1024.0;
 const SHORT_RUN: usize = 3;
 
 fn main() {
+    grainstat::give_back_large_blocks();
     let mut args: Vec<String> = std::env::args().skip(1).collect();
     let mut threads = 1usize;
     if let Some(at) = args.iter().position(|a| a == "--threads") {

@@ -50,6 +50,7 @@ pub mod study;
 pub mod sweep;
 
 pub use error::{Error, InputError, NumericError, Result};
+pub use memory::give_back_large_blocks;
 
 /// The README's Rust example, compiled and run as a doctest.
 #[doc = include_str!("../README.md")]

@@ -212,6 +212,7 @@ enum Command {
 }
 
 fn main() -> ExitCode {
+    grainstat::give_back_large_blocks();
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Run {

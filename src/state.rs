@@ -1,7 +1,7 @@
 //! The state of a run: exactly what is written to HDF5 after each increment and read back to
 //! resume. Everything else (factorisations, buffers, the pattern) is workspace, rebuilt from it.
 
-use crate::contact::ContactSet;
+use crate::contact::{CommittedSet, ContactSet};
 use crate::geometry::{GrainSet, Membrane, Side, WallSet};
 use crate::measure::Measurements;
 use crate::simulation::EnergyBalance;
@@ -38,6 +38,44 @@ pub struct State {
     /// [`crate::simulation::Simulation::take_out`]); their grains are those marked in
     /// [`GrainSet::taken_out`].
     pub breakouts: Vec<Breakout>,
+}
+
+/// A committed state kept to go back to (the state an increment starts from): its contacts as
+/// the result file keeps them ([`CommittedSet`], under half their size in the state), the
+/// rest shared with the state until either changes. The state goes on changing its contacts
+/// in place, where a second holder of them would make it copy them whole.
+#[derive(Debug, Clone)]
+pub struct KeptState {
+    /// The state with no contacts.
+    rest: State,
+    /// Its contacts.
+    contacts: CommittedSet,
+}
+
+impl KeptState {
+    /// Keep `state`, committed.
+    pub fn of(state: &State) -> Self {
+        KeptState {
+            rest: State {
+                contacts: ContactSet::default().into(),
+                ..state.clone()
+            },
+            contacts: state.contacts.committed(),
+        }
+    }
+
+    /// The state kept.
+    pub fn state(&self) -> State {
+        State {
+            contacts: self.contacts.restore().into(),
+            ..self.rest.clone()
+        }
+    }
+
+    /// Its contacts.
+    pub fn contacts(&self) -> &CommittedSet {
+        &self.contacts
+    }
 }
 
 /// A part of the state held once by all its copies until one of them changes it (copy on

@@ -442,15 +442,20 @@ impl Pattern {
         }
         let mut distinct = Vec::with_capacity(n);
         parallel::map_mut_into(&mut columns, &mut distinct, |column| sort_distinct(column));
-        let mut col_ptr = Vec::with_capacity(n + 1);
-        let mut row_idx = Vec::with_capacity(distinct.iter().sum());
-        col_ptr.push(0);
-        for (column, &k) in columns.iter().zip(&distinct) {
-            row_idx.extend_from_slice(&column[..k]);
-            col_ptr.push(value_index(row_idx.len()));
-        }
         drop(columns);
-        drop(rows);
+        // Each column's distinct rows moved down to where the last one's end, in the same
+        // vector: a copy would hold the pattern's rows twice at once.
+        let mut col_ptr = Vec::with_capacity(n + 1);
+        col_ptr.push(0);
+        let (mut from, mut to) = (0, 0);
+        for (&c, &k) in count.iter().zip(&distinct) {
+            rows.copy_within(from..from + k, to);
+            (from, to) = (from + c, to + k);
+            col_ptr.push(value_index(to));
+        }
+        rows.truncate(to);
+        rows.shrink_to_fit();
+        let row_idx = rows;
         let slot = |row: usize, col: usize| {
             let range = col_ptr[col] as usize..col_ptr[col + 1] as usize;
             range.start

@@ -60,7 +60,9 @@ use super::h5::{
     put_text, read_error, read_in_child, read_rows, read_vec, require_format, set_attr,
     set_str_attr, write_error, Fail, R,
 };
-use crate::contact::{BreakMode, BrokenBond, Contact, ContactParams, ContactSet, Response};
+use crate::contact::{
+    BreakMode, BrokenBond, CommittedContact, Contact, ContactParams, ContactSet, Response,
+};
 use crate::error::Error;
 use crate::geometry::{
     Circle, GrainSet, Membrane, MembraneShape, Pair, Side, Wall, WallControl, WallSet,

@@ -8,7 +8,7 @@ use super::bonds::{bracketing_cuts, first_crossing};
 use super::{anchors, EnergyBalance, LoadStep, Simulation, CHAIN_CHANGES};
 use crate::contact::{ContactSet, Lag};
 use crate::solver::minimise::{self, MinimiseSettings, Potential, SystemMatrix};
-use crate::state::{IncrementReport, PeakState, Shared, State};
+use crate::state::{IncrementReport, KeptState, PeakState, Shared};
 use crate::NumericError;
 use std::sync::Arc;
 
@@ -73,7 +73,7 @@ impl Simulation {
     pub(super) fn minimise_step(
         &mut self,
         step: &LoadStep,
-        start: &State,
+        start: &KeptState,
         report: &mut IncrementReport,
     ) -> Result<(), NumericError> {
         let whole = Part {
@@ -82,10 +82,10 @@ impl Simulation {
             depth: 0,
             stalls: 0,
         };
-        let result = self.follow_path(step, whole, report);
+        let result = self.follow_path(step, whole, start, report);
         if let Err(NumericError::NotConverged { .. }) = result {
             // The solver gave up: the increment is not solved, whatever halves converged.
-            self.state.clone_from(start);
+            self.state = start.state();
             self.rebuild_workspace()?;
         }
         result
@@ -98,15 +98,16 @@ impl Simulation {
         &mut self,
         step: &LoadStep,
         part: Part,
+        start: &KeptState,
         report: &mut IncrementReport,
     ) -> Result<(), NumericError> {
         let load_change = self.load_change(step, part);
         let wide = part.depth < BRACKET_CUTS && load_change > BRACKET;
-        let mut error = match self.solve_part(step, part.share, wide, report) {
+        let mut error = match self.solve_part(step, part.share, wide, start, report) {
             Ok(Solved::Committed) => return Ok(()),
             Ok(Solved::BondPastStrength { crossing }) => {
                 let cuts = bracketing_cuts(crossing, BRACKET / load_change);
-                return self.follow_parts(step, part, &cuts, false, report);
+                return self.follow_parts(step, part, &cuts, false, start, report);
             }
             Err(e) => e,
         };
@@ -129,7 +130,7 @@ impl Simulation {
             return Err(error);
         }
         let stalled = matches!(error, NumericError::NotConverged { .. });
-        self.follow_parts(step, part, &[0.5], stalled, report)
+        self.follow_parts(step, part, &[0.5], stalled, start, report)
     }
 
     /// Follow `step`, part `part` of the increment, in parts that end at the shares `cuts` of
@@ -141,6 +142,7 @@ impl Simulation {
         part: Part,
         cuts: &[f64],
         stalled: bool,
+        start: &KeptState,
         report: &mut IncrementReport,
     ) -> Result<(), NumericError> {
         report.cuts += 1;
@@ -155,11 +157,11 @@ impl Simulation {
         };
         for &cut in cuts {
             let (first, after) = rest.split((cut - from) / (1.0 - from), &stress, &pressure);
-            self.follow_path(&first, piece(from, cut), report)?;
+            self.follow_path(&first, piece(from, cut), start, report)?;
             (stress, pressure) = (first.stress, first.pressure);
             (rest, from) = (after, cut);
         }
-        self.follow_path(&rest, piece(from, 1.0), report)
+        self.follow_path(&rest, piece(from, 1.0), start, report)
     }
 
     /// Each grain's displacement in the last descent, from the state it started at: after an
@@ -256,26 +258,34 @@ impl Simulation {
     }
 
     /// Minimise the potential of `step`, `share` of the increment, break overloaded bonds one
-    /// at a time, and commit. On failure the committed state is left as it was.
+    /// at a time, and commit. On failure the committed state is left as it was: the contacts
+    /// of the increment's `start` where the part starts from them, else its own.
     fn solve_part(
         &mut self,
         step: &LoadStep,
         share: f64,
         wide: bool,
+        start: &KeptState,
         report: &mut IncrementReport,
     ) -> Result<Solved, NumericError> {
-        let committed = self.state.contacts.clone();
+        let own;
+        let committed = if start.contacts().holds(&self.state.contacts) {
+            start.contacts()
+        } else {
+            own = self.state.contacts.committed();
+            &own
+        };
         let energy = self.energy;
         let (taken_out, breakouts) = (
             self.state.grains.taken_out.clone(),
             self.state.breakouts.len(),
         );
-        let made_before: Vec<_> = committed.contacts.iter().map(|c| c.pair).collect();
         let result = self.solve_with_breaks(step, share, wide, report);
         match result {
             Ok(None) => {
-                let crossing = first_crossing(&committed, &self.state.contacts);
-                self.state.contacts = committed;
+                let restored = committed.restore();
+                let crossing = first_crossing(&restored, &self.state.contacts);
+                self.state.contacts = restored.into();
                 self.energy = energy;
                 self.restore_friends()?;
                 Ok(Solved::BondPastStrength { crossing })
@@ -284,15 +294,16 @@ impl Simulation {
                 report.negative_pivots = self.negative_pivots(step, &u);
                 let contacts = &mut self.state.contacts.contacts;
                 contacts.retain(|c| c.bonded || c.overlap > 0.0);
+                let before = &committed.contacts;
                 let made = contacts
                     .iter()
-                    .filter(|c| made_before.binary_search(&c.pair).is_err())
+                    .filter(|c| before.binary_search_by(|d| d.pair.cmp(&c.pair)).is_err())
                     .count();
                 let kept = contacts.len() - made;
                 report.contacts_made += made;
-                report.contacts_lost += made_before.len() - kept;
+                report.contacts_lost += before.len() - kept;
                 self.stats.counters.contacts_made += made;
-                self.stats.counters.contacts_lost += made_before.len() - kept;
+                self.stats.counters.contacts_lost += before.len() - kept;
                 self.commit(step, &u);
                 self.index_pairs()?;
                 // The predictor is kept per whole increment: a half step predicts half of it.
@@ -310,7 +321,7 @@ impl Simulation {
                     .map(|b| b.grains)
                     .collect();
                 self.state.grains.taken_out = taken_out;
-                self.state.contacts = committed;
+                self.state.contacts = committed.restore().into();
                 self.energy = energy;
                 if clusters.is_empty() {
                     self.restore_friends()?;
@@ -575,7 +586,6 @@ impl Simulation {
             chain_changes = eq.chain_changes;
             self.take_back(stats, timers, values);
             self.linear = linear;
-            work.release_consistent();
             self.minimise_work = work;
             let outcome = result?;
             settings.lambda_start = if outcome.at_reach {

@@ -33,7 +33,7 @@ use crate::memory::HeapBytes;
 use crate::solver::minimise::{MinimiseWork, Potential};
 use crate::solver::stats::{secs, StageTimers};
 use crate::solver::{LinearSolver, SolverConfig, SolverStats, Strategy};
-use crate::state::{IncrementReport, PeakState, State};
+use crate::state::{IncrementReport, KeptState, PeakState, State};
 use crate::NumericError;
 use std::sync::Arc;
 use std::time::Instant;
@@ -277,18 +277,18 @@ impl Simulation {
     /// converge; or relaxation), commit, measure. Where it fails, the state it started from
     /// is kept in [`Simulation::failed_from`].
     pub fn run_increment(&mut self) -> Result<IncrementReport, NumericError> {
-        let start = self.state.clone();
+        let start = KeptState::of(&self.state);
         self.failed_from = None;
         let result = self.solve_increment(&start);
         if result.is_err() {
-            self.failed_from = Some(start);
+            self.failed_from = Some(start.state());
         }
         result
     }
 
     /// The increment from `committed`, the state it starts from (see
     /// [`Simulation::run_increment`]).
-    fn solve_increment(&mut self, committed: &State) -> Result<IncrementReport, NumericError> {
+    fn solve_increment(&mut self, committed: &KeptState) -> Result<IncrementReport, NumericError> {
         let mut report = IncrementReport {
             increment: self.state.increment + 1,
             stage: self.state.stage,
@@ -544,7 +544,6 @@ impl Simulation {
     fn install_pattern(&mut self) -> Result<(), NumericError> {
         // The old pattern's values go first, so that the two patterns' are not held at once.
         self.values = Vec::new();
-        self.minimise_work.release_consistent();
         let links: Vec<(usize, usize)> = self.chains.iter().flat_map(Chain::links).collect();
         let pattern = Pattern::build(&self.friends, &self.dofs, &self.state.walls, &links);
         let (old, new) = (&self.pattern.symbolic, &pattern.symbolic);

@@ -1,6 +1,7 @@
 //! The minimisation's tangents against finite differences of its residuals.
 
 use super::*;
+use crate::contact::Contact;
 use crate::samples;
 use crate::scene::build_grains;
 use crate::solver::krylov;
@@ -206,6 +207,18 @@ fn the_hessian_of_the_lagged_potential_matches_finite_differences() {
     }
 }
 
+/// A cemented annulus under a ring membrane raised until it fails, and its simulation: it
+/// breaks bonds, in parts of its increments, loses contacts, takes clusters out and moves
+/// its chain from grain to grain.
+fn failing_annulus() -> (crate::scene::Scene, Simulation) {
+    let mut scene = samples::cemented_annulus(3.0, 8.0, 20);
+    scene.stages[0].stress.insert("outer".into(), 4.01e8);
+    scene.stages[0].breakouts = true;
+    let grains = build_grains(&scene.grains, Path::new("."), "t").unwrap();
+    let sim = Simulation::new(&scene, grains, SolverConfig::default(), "t").unwrap();
+    (scene, sim)
+}
+
 /// After each written increment the workspace is the one a run resumed from the written
 /// state starts with: the same friends pairs and the same pattern, entry for entry, so that
 /// the resumed run repeats the arithmetic of the uninterrupted one. A cemented annulus under
@@ -214,11 +227,7 @@ fn the_hessian_of_the_lagged_potential_matches_finite_differences() {
 /// a resumed run's do not.
 #[test]
 fn the_workspace_after_a_write_is_the_one_a_resumed_run_starts_with() {
-    let mut scene = samples::cemented_annulus(3.0, 8.0, 20);
-    scene.stages[0].stress.insert("outer".into(), 4.01e8);
-    scene.stages[0].breakouts = true;
-    let grains = build_grains(&scene.grains, Path::new("."), "t").unwrap();
-    let mut sim = Simulation::new(&scene, grains, SolverConfig::default(), "t").unwrap();
+    let (scene, mut sim) = failing_annulus();
     while sim.run_increment().is_ok() && !sim.is_finished() {
         sim.refresh_workspace().unwrap();
         let config = SolverConfig::default();
@@ -237,4 +246,34 @@ fn the_workspace_after_a_write_is_the_one_a_resumed_run_starts_with() {
         "failed in increment {}",
         sim.state.increment + 1
     );
+}
+
+/// An increment keeps the state it starts from as the result file keeps it
+/// ([`KeptState`]), and a part of it goes back to the contacts it started from: every
+/// increment starts from committed contacts, whose history is their response, so that the
+/// state kept gives back the state, its contacts' lag and energy apart (the increment's own).
+/// On the failing annulus, which breaks bonds in parts of its increments.
+#[test]
+fn an_increment_starts_from_committed_contacts_it_keeps_whole() {
+    let (_, mut sim) = failing_annulus();
+    let mut cuts = 0;
+    loop {
+        let k = sim.state.increment;
+        let contacts = &sim.state.contacts;
+        assert!(
+            contacts.contacts.iter().all(Contact::is_committed),
+            "increment {k}"
+        );
+        let kept = KeptState::of(&sim.state);
+        let back = kept.state();
+        assert!(kept.contacts().holds(&back.contacts), "increment {k}");
+        let mut state = sim.state.clone();
+        state.contacts = back.contacts.clone();
+        assert!(state == back, "increment {k}");
+        match sim.run_increment() {
+            Ok(report) if !sim.is_finished() => cuts += report.cuts,
+            _ => break,
+        }
+    }
+    assert!(cuts > 0, "no increment in parts");
 }

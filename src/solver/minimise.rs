@@ -38,9 +38,7 @@ pub struct SystemMatrix<'a> {
 /// The minimisation's work vectors, kept from one minimisation to the next so that, once
 /// grown to the system's size, none is allocated again: from some 25,000 grains a vector of
 /// the pattern's size (32 MB and more) is a fresh mapping of memory each time it is
-/// allocated, every page of it zeroed by the system as it is first written. The consistent
-/// tangent's alone is made once a minimisation that takes semi-smooth steps, and freed at
-/// its end.
+/// allocated, every page of it zeroed by the system as it is first written.
 #[derive(Debug, Default)]
 pub struct MinimiseWork {
     residual: Vec<f64>,
@@ -48,29 +46,15 @@ pub struct MinimiseWork {
     du: Vec<f64>,
     trial_u: Vec<f64>,
     loads: Vec<f64>,
+    /// The regularisation added to the diagonal of the Hessian factorised, and of the
+    /// consistent tangent in a semi-smooth step.
     shift: Vec<f64>,
-    /// The regularisation of the consistent tangent in a semi-smooth step.
-    regularised: Vec<f64>,
-    /// The consistent tangent's values in a semi-smooth step, put in the order by rows for
-    /// GMRES's products: made by a minimisation's first semi-smooth step and freed at its
-    /// end ([`MinimiseWork::release_consistent`]).
-    consistent: Vec<f64>,
     /// Each row's next place by rows, while the consistent tangent is put in that order.
     row_cursors: Vec<u32>,
     gmres: krylov::Gmres,
 }
 
 impl MinimiseWork {
-    /// Free the vector of the pattern's size (the consistent tangent's), after a minimisation
-    /// and before a new pattern is made: the next semi-smooth step makes it again, at the
-    /// pattern's size then. Held between minimisations it would be held through the
-    /// factorisations of the lagged steps and of the stability indicator (503 MB at a
-    /// million grains); made once a minimisation, it costs a fresh mapping of memory there,
-    /// against the factorisations' seconds.
-    pub fn release_consistent(&mut self) {
-        self.consistent = Vec::new();
-    }
-
     /// Bytes its vectors hold.
     pub fn heap_bytes(&self) -> usize {
         let vectors = [
@@ -80,8 +64,6 @@ impl MinimiseWork {
             &self.trial_u,
             &self.loads,
             &self.shift,
-            &self.regularised,
-            &self.consistent,
         ];
         vectors.iter().map(|v| v.heap_bytes()).sum::<usize>()
             + self.row_cursors.heap_bytes()
@@ -375,8 +357,6 @@ pub fn minimise(
         trial_u,
         loads,
         shift,
-        regularised,
-        consistent,
         row_cursors,
         gmres,
     } = work;
@@ -387,12 +367,10 @@ pub fn minimise(
         &mut *trial_u,
         &mut *loads,
         &mut *shift,
-        &mut *regularised,
     ] {
         v.clear();
         v.resize(n, 0.0);
     }
-    consistent.clear();
 
     let mut energy = eq.evaluate(u, residual, Some(values), true)?;
     let (mut rel, mut worst, mut merit) = eq.residual_norm(residual);
@@ -490,15 +468,6 @@ pub fn minimise(
         if semismooth {
             // The consistent tangent's Newton step by GMRES, preconditioned by the last
             // Cholesky of the Hessian, and a line search on the true residual.
-            consistent.resize(values.len(), 0.0);
-            eq.consistent_tangent(u, residual, consistent)?;
-            (rel, worst, merit) = eq.residual_norm(residual);
-            true_merit = merit;
-            frozen = true;
-            if rel <= settings.tolerance {
-                continue;
-            }
-            krylov::to_rows_in_place(symbolic, consistent, row_cursors);
             // The consistent tangent is regularised as the Hessian is (`regularise` with the
             // present Levenberg-Marquardt factor: its share on every row, and the floor of rows
             // with no stiffness). A grain whose contacts all slide has no stiffness along its
@@ -506,13 +475,30 @@ pub fn minimise(
             // turns it without bound and no share of the step lowers the residual
             // (docs/minimise.md, "The semi-smooth step regularised as the Hessian is, kept").
             // The share falls tenfold after each step taken; the floor stays.
-            regularise(eq, values, diagonal, lm, regularised);
+            regularise(eq, values, diagonal, lm, shift);
+            // The consistent tangent takes the Hessian's storage (503 MB at a million grains).
+            // With an earlier iterate's factor, this iterate's Hessian, regularised the same
+            // way, is first taken into the factor's order: a fresh factor of it where the
+            // earlier one fails GMRES.
+            if stale {
+                linear
+                    .stage(values, shift)
+                    .map_err(|e| NumericError::Singular { detail: e.0 })?;
+            }
+            eq.consistent_tangent(u, residual, values)?;
+            (rel, worst, merit) = eq.residual_norm(residual);
+            true_merit = merit;
+            frozen = true;
+            if rel <= settings.tolerance {
+                continue;
+            }
+            krylov::to_rows_in_place(symbolic, values, row_cursors);
             let mut solve = |linear: &mut LinearSolver, du: &mut [f64], stats: &mut SolverStats| {
                 du.fill(0.0);
                 gmres.solve(
                     &mut |v, out| {
-                        krylov::multiply_by_rows(symbolic, consistent, v, out);
-                        for ((o, r), x) in out.iter_mut().zip(regularised.iter()).zip(v) {
+                        krylov::multiply_by_rows(symbolic, values, v, out);
+                        for ((o, r), x) in out.iter_mut().zip(shift.iter()).zip(v) {
                             *o += r * x;
                         }
                     },
@@ -526,9 +512,7 @@ pub fn minimise(
             let mut solved = solve(linear, du, stats);
             if solved.is_none() && stale {
                 // The earlier factor no longer serves: this iterate's Hessian may.
-                let a = SparseColMatRef::new(symbolic.as_ref(), values);
-                let made = factorize_hessian(eq, a, diagonal, lm, shift, linear, stats);
-                factored = made.is_ok();
+                factored = linear.factorize_staged(stats).is_ok();
                 if factored {
                     solved = solve(linear, du, stats);
                 }

@@ -212,7 +212,7 @@ pub(super) fn read_group_state(g: &Group, h: &RunHeader) -> R<State> {
             3 => (false, true),
             s => return Err(Fail(format!("contact {k} has state {s}"))),
         };
-        contacts.push(Contact {
+        let committed = CommittedContact {
             pair: decode_pair(pair[k][0], pair[k][1], n, nw)?,
             params: ContactParams {
                 stiffness: params[k][0],
@@ -222,9 +222,8 @@ pub(super) fn read_group_state(g: &Group, h: &RunHeader) -> R<State> {
             },
             bonded,
             broken,
-            shear_force0: shear_force[k],
-            shear_displacement0: shear_displacement[k],
-            shear_offset: 0.0,
+            shear_displacement: shear_displacement[k],
+            overlap: overlap[k],
             response: Response {
                 normal_force: normal_force[k],
                 shear_force: shear_force[k],
@@ -233,12 +232,8 @@ pub(super) fn read_group_state(g: &Group, h: &RunHeader) -> R<State> {
                 dfs_dn: tangent[k][1],
                 dfs_ds: tangent[k][2],
             },
-            overlap: overlap[k],
-            shear_increment: 0.0,
-            start_overlap: overlap[k],
-            lag: Default::default(),
-            energy: 0.0,
-        });
+        };
+        contacts.push(committed.contact());
     }
 
     let broken_bonds = read_rows::<i64, 4>(g, "broken_bonds", None)?

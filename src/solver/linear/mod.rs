@@ -189,15 +189,12 @@ impl<I: Index> Cholesky<I> {
         }
     }
 
-    /// Numeric factorisation of `a + diag(shift)` into `factor`: `L L^T`.
+    /// Numeric factorisation of the matrix gathered last into `factor`: `L L^T`.
     fn factorize_llt(
         &mut self,
-        a: &[f64],
-        shift: &[f64],
         factor: &mut Vec<f64>,
         (par, scratch): (Par, &mut MemBuffer),
     ) -> Result<(), NotFactorizable> {
-        self.gather(a, shift);
         factor.resize(self.symbolic.len_val(), 0.0);
         factorize_supernodal_numeric_llt(
             factor,
@@ -415,6 +412,8 @@ pub struct LinearSolver {
     /// The factor's values: the `L L^T` solved with, or the stability indicator's `L D L^T`.
     /// Sized when first factorised into.
     factor: Vec<f64>,
+    /// Whether the analysis's copy holds the matrix of the last [`LinearSolver::stage`].
+    staged: bool,
     /// Whether the last `L D L^T` had all its pivots above its threshold.
     definite: bool,
     /// The scale `S` of the tangent `K` whose `S K S` the `L D L^T` held as
@@ -444,6 +443,7 @@ impl LinearSolver {
             scratch: MemBuffer::new(StackReq::EMPTY),
             holds: Factor::Nothing,
             factor: Vec::new(),
+            staged: false,
             definite: false,
             tangent_scale: Vec::new(),
         }
@@ -460,7 +460,7 @@ impl LinearSolver {
         let start = Instant::now();
         // The old analysis goes first, so that the two are not held at once.
         self.cholesky = None;
-        self.holds = Factor::Nothing;
+        (self.holds, self.staged) = (Factor::Nothing, false);
         let threads = rayon::current_num_threads();
         self.par = if threads > 1 && pattern.nrows() >= PARALLEL_UNKNOWNS {
             Par::rayon(threads)
@@ -494,14 +494,32 @@ impl LinearSolver {
         stats: &mut SolverStats,
     ) -> Result<(), NotFactorizable> {
         let start = Instant::now();
-        self.holds = Factor::Nothing;
+        self.stage(matrix.val(), shift)?;
+        stats.timers.factorisation += secs(start);
+        self.factorize_staged(stats)
+    }
+
+    /// Take `values + diag(shift)` (values of the analysed pattern) into the analysis's own
+    /// copy in its order, for [`LinearSolver::factorize_staged`]: `values` can then be
+    /// overwritten. The factor held stays until then.
+    pub fn stage(&mut self, values: &[f64], shift: &[f64]) -> Result<(), NotFactorizable> {
         let Some(analysis) = &mut self.cholesky else {
             return Err(NotFactorizable("no symbolic factorisation".into()));
         };
+        with_cholesky!(analysis, c => c.gather(values, shift));
+        self.staged = true;
+        Ok(())
+    }
+
+    /// Numeric factorisation, `L L^T`, of the matrix of the last [`LinearSolver::stage`].
+    pub fn factorize_staged(&mut self, stats: &mut SolverStats) -> Result<(), NotFactorizable> {
+        let start = Instant::now();
+        self.holds = Factor::Nothing;
+        let (Some(analysis), true) = (&mut self.cholesky, self.staged) else {
+            return Err(NotFactorizable("no matrix staged".into()));
+        };
         let work = (self.par, &mut self.scratch);
-        let result = with_cholesky!(analysis, c => {
-            c.factorize_llt(matrix.val(), shift, &mut self.factor, work)
-        });
+        let result = with_cholesky!(analysis, c => c.factorize_llt(&mut self.factor, work));
         stats.counters.numeric_factorisations += 1;
         stats.timers.factorisation += secs(start);
         if result.is_ok() {
@@ -575,7 +593,7 @@ impl LinearSolver {
         stats: &mut SolverStats,
     ) -> Result<usize, NotFactorizable> {
         let start = Instant::now();
-        self.holds = Factor::Nothing;
+        (self.holds, self.staged) = (Factor::Nothing, false);
         let Some(analysis) = &mut self.cholesky else {
             return Err(NotFactorizable("no symbolic factorisation".into()));
         };

@@ -208,17 +208,14 @@ fn the_analysis_in_32_bits_factorises_and_solves_as_in_the_machines_word() {
             .unwrap();
         let mut scratch = MemBuffer::new(narrow.scratch(Par::Seq));
         let (mut factor, mut wide_factor) = (Vec::new(), Vec::new());
+        narrow.gather(matrix.val(), &shift);
         narrow
-            .factorize_llt(matrix.val(), &shift, &mut factor, (Par::Seq, &mut scratch))
+            .factorize_llt(&mut factor, (Par::Seq, &mut scratch))
             .unwrap();
         let mut scratch = MemBuffer::new(wide.scratch(Par::Seq));
-        wide.factorize_llt(
-            matrix.val(),
-            &shift,
-            &mut wide_factor,
-            (Par::Seq, &mut scratch),
-        )
-        .unwrap();
+        wide.gather(matrix.val(), &shift);
+        wide.factorize_llt(&mut wide_factor, (Par::Seq, &mut scratch))
+            .unwrap();
         assert_eq!(
             bits(&factor),
             bits(&wide_factor),
