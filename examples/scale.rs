@@ -2,9 +2,10 @@
 //! (`samples::crystal_of_about`, table 8, between four walls), set up, then its first load
 //! increment and a short run of three more, each size in a process of its own so that its peak
 //! memory is its own. Prints three markdown tables: time and memory by size, with each
-//! increment's time, Newton iterations and factorisations, where the time of the four increments went, stage
-//! by stage, beside the time of one factorisation, and what the simulation holds at the end
-//! by part (`Simulation::memory_by_part`) beside the process's peak. The first increment
+//! increment's time, Newton iterations and factorisations; where the time of the four
+//! increments went, stage by stage, beside the time of one factorisation; and what the
+//! simulation holds at the end by part (`Simulation::memory_by_part`) beside the process's
+//! peak. The first increment
 //! starts from first touch and the third is the first of the second stage; the second and
 //! fourth are loaded increments as a long run has most of. `--no-indicator` turns the
 //! stability indicator off (its own factorisation each increment).
