@@ -14,15 +14,12 @@ use grainstat::solver::stats::SolverStats;
 use grainstat::state::{Breakout, IncrementReport, PeakState, State};
 use grainstat::Error;
 use std::path::Path;
-use std::sync::Mutex;
 
-/// One test at a time: a child process (the Python check) inherits the descriptors of files
-/// other test threads have open, and with them HDF5's file locks, until it exits.
-static SERIAL: Mutex<()> = Mutex::new(());
-
-fn serial() -> std::sync::MutexGuard<'static, ()> {
-    SERIAL.lock().unwrap_or_else(|e| e.into_inner())
-}
+// One test at a time (`common::serial`): the Python check is a child process that inherits
+// the descriptors of files other test threads have open, and with them HDF5's file locks,
+// until it exits.
+mod common;
+use common::serial;
 
 fn wall(name: &str, normal: [f64; 2], offset: f64) -> Wall {
     Wall {

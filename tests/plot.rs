@@ -6,7 +6,7 @@
 
 mod common;
 
-use common::{assert_input_error, crystal_scene, grainstat, stderr};
+use common::{assert_input_error, crystal_scene, grainstat, serial, stderr};
 use grainstat::output::{read_history, read_increments, read_state};
 use grainstat::samples;
 use std::collections::HashMap;
@@ -239,6 +239,7 @@ fn check_outputs(pictures: &Path, increment: usize, result: &Path) {
 
 #[test]
 fn a_run_draws_its_pictures_and_writes_csv_and_xdmf() {
+    let _serial = serial();
     let dir = tempfile::tempdir().unwrap();
     let result = crystal_run(dir.path());
     let last = *read_increments(&result).unwrap().last().unwrap();
@@ -247,6 +248,7 @@ fn a_run_draws_its_pictures_and_writes_csv_and_xdmf() {
 
 #[test]
 fn plot_draws_an_increment_into_a_directory() {
+    let _serial = serial();
     let dir = tempfile::tempdir().unwrap();
     let result = crystal_run(dir.path());
     let increments = read_increments(&result).unwrap();
@@ -274,6 +276,7 @@ fn plot_draws_an_increment_into_a_directory() {
 
 #[test]
 fn a_partly_written_file_is_plotted_up_to_its_last_complete_increment() {
+    let _serial = serial();
     let dir = tempfile::tempdir().unwrap();
     let result = crystal_run(dir.path());
     let increments = read_increments(&result).unwrap();
@@ -297,6 +300,7 @@ fn a_partly_written_file_is_plotted_up_to_its_last_complete_increment() {
 
 #[test]
 fn no_plot_draws_nothing() {
+    let _serial = serial();
     let dir = tempfile::tempdir().unwrap();
     let scene = samples::crystal_biaxial(5, 4, 1e6, 2e6);
     let path = dir.path().join("small.toml");
@@ -318,6 +322,7 @@ fn no_plot_draws_nothing() {
 
 #[test]
 fn bad_input_to_plot_is_exit_status_2_naming_the_file() {
+    let _serial = serial();
     let dir = tempfile::tempdir().unwrap();
     let missing = dir.path().join("missing.h5");
     let out = grainstat(&["plot", missing.to_str().unwrap()]);

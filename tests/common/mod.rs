@@ -42,6 +42,16 @@ pub fn grainstat_command() -> Command {
     command
 }
 
+/// One test at a time, for the tests of a file that open HDF5 files in the test process while
+/// others start child processes. A child holds the descriptors it inherits, and with them
+/// HDF5's file locks, from its fork until it closes them: at once for [`grainstat_command`],
+/// but a loaded machine can pause it before that, and a test that opens such a file
+/// meanwhile finds it locked.
+pub fn serial() -> std::sync::MutexGuard<'static, ()> {
+    static SERIAL: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    SERIAL.lock().unwrap_or_else(|e| e.into_inner())
+}
+
 /// What a run printed on standard error.
 pub fn stderr(out: &Output) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()
