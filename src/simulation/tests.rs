@@ -277,3 +277,54 @@ fn an_increment_starts_from_committed_contacts_it_keeps_whole() {
     }
     assert!(cuts > 0, "no increment in parts");
 }
+
+/// Two grains closing on a small loose grain between them from sides a degree from
+/// opposite: its least way out, with the pairs linearised where it is, lies fifty of its
+/// radii along the wedge. A placement that far is not made: the grain stays where it was,
+/// and is taken in among the others.
+#[test]
+fn a_loose_grain_is_not_placed_further_than_its_radius() {
+    let scene = crate::scene::parse_scene(
+        r#"
+name = "wedge"
+[material]
+law = "linear"
+normal_stiffness = 1e6
+bonded = false
+[grains]
+x = [-1.05e-4, 1.05e-4, 0.0]
+y = [0.0, 0.0, 1e-6]
+r = [1e-4, 1e-4, 4e-6]
+[box]
+[[stages]]
+increments = 1
+"#,
+        "wedge.toml",
+    )
+    .unwrap();
+    let grains = build_grains(&scene.grains, Path::new("."), "t").unwrap();
+    let mut sim = Simulation::new(&scene, grains, SolverConfig::default(), "t").unwrap();
+    let step = sim.next_load_step();
+    sim.start_step();
+    sim.start_newton().unwrap();
+    sim.engage_pairs();
+    sim.loose = vec![false, false, true];
+    let mut u = vec![0.0; sim.dofs.len];
+    // The right grain moved 5 um towards the left one, into the loose grain.
+    u[sim.dofs.grain(1)] = -5e-6;
+    let mut eq = sim.equations(&step);
+    let failed = eq.place_loose(&mut u);
+    assert_eq!(failed, [2]);
+    let base = sim.dofs.grain(2);
+    assert_eq!([u[base], u[base + 1]], [0.0, 0.0]);
+    // Closer to opposite than the pairs' linearisation notices, nowhere to go at all: it
+    // stays, to where its overlaps balance, within its radius.
+    let mut u = vec![0.0; sim.dofs.len];
+    u[sim.dofs.grain(1)] = -5e-6;
+    u[sim.dofs.grain(2) + 1] = -1e-6;
+    sim.loose = vec![false, false, true];
+    let failed = sim.equations(&step).place_loose(&mut u);
+    assert_eq!(failed, [2]);
+    let moved = u[base].hypot(u[base + 1] + 1e-6);
+    assert!(moved < 4e-6, "moved {moved:e}");
+}
