@@ -278,8 +278,8 @@ fn an_increment_starts_from_committed_contacts_it_keeps_whole() {
     assert!(cuts > 0, "no increment in parts");
 }
 
-/// Two grains closing on a small loose grain between them from sides a degree from
-/// opposite: its least way out, with the pairs linearised where it is, lies fifty of its
+/// Two grains closing on a small loose grain between them from sides half a degree from
+/// opposite: its least way out, with the pairs linearised where it is, lies some forty of its
 /// radii along the wedge. A placement that far is not made: the grain stays where it was,
 /// and is taken in among the others.
 #[test]
