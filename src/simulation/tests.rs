@@ -317,8 +317,8 @@ increments = 1
     assert_eq!(failed, [2]);
     let base = sim.dofs.grain(2);
     assert_eq!([u[base], u[base + 1]], [0.0, 0.0]);
-    // Closer to opposite than the pairs' linearisation notices, nowhere to go at all: it
-    // stays, to where its overlaps balance, within its radius.
+    // On the line of the two centres, pressed from exactly opposite sides, it has no way out
+    // at all: it goes to where its overlaps balance, within its radius.
     let mut u = vec![0.0; sim.dofs.len];
     u[sim.dofs.grain(1)] = -5e-6;
     u[sim.dofs.grain(2) + 1] = -1e-6;
