@@ -131,6 +131,7 @@ fn stages(c: &mut Criterion) {
         let mut q = Configuration::at_rest(&state.grains, &state.walls);
         let mut kin = Vec::new();
         let mut chains = Vec::new();
+        let mut chain_watch = grainstat::geometry::ChainWatch::default();
         let mut loose = Vec::new();
         let u = vec![0.0; dofs.len];
         let mut residual = vec![0.0; dofs.len];
@@ -145,7 +146,7 @@ fn stages(c: &mut Criterion) {
             membranes: &[],
             chains: &mut chains,
             chains_held: false,
-            chains_found_at: Vec::new(),
+            chain_watch: &mut chain_watch,
             carriers: &[],
             anchors: &anchors,
             loose: &mut loose,

@@ -5,6 +5,7 @@
 //! centres, each segment `e` carrying `p D |e|` along its inward normal, half to each end.
 //! The load enters the global equations directly (no servo), with its tangent.
 
+use super::chain_watch::{ChainHold, Start};
 use super::{surely_longer, surely_shorter, CellGrid, SQUARED_DOUBT};
 use std::cell::RefCell;
 use std::f64::consts::TAU;
@@ -105,8 +106,22 @@ impl Membrane {
         carrying: &[bool],
         taken_out: &[bool],
     ) -> Chain {
+        self.roll(position, radius, carrying, taken_out, false).0
+    }
+
+    /// [`Membrane::chain`], and with `hold` how far its grains may move before the probe
+    /// could find another ([`ChainHold`]).
+    pub(super) fn roll(
+        &self,
+        position: &[[f64; 2]],
+        radius: &[f64],
+        carrying: &[bool],
+        taken_out: &[bool],
+        hold: bool,
+    ) -> (Chain, Option<ChainHold>) {
         if !carrying.iter().any(|&c| c) {
-            return Chain::default();
+            let none = hold.then(ChainHold::default);
+            return (Chain::default(), none);
         }
         let r_mean = radius.iter().sum::<f64>() / radius.len() as f64;
         let roll = Roll::new(position, radius, carrying, PROBE_RADII * r_mean);
@@ -120,42 +135,64 @@ impl Membrane {
                 .expect("grains")
                 .1
         };
-        match self.shape {
+        // With a hold, the grains that reach nearly as far, as a hold needs them.
+        let rivals = |start: usize| {
+            hold.then(|| Start::among(start, self.shape, position, radius, carrying, r_mean))
+        };
+        let (chain, start) = match self.shape {
             MembraneShape::Side { outward } => {
                 // Along the side: the outward normal turned 90 degrees anticlockwise keeps the
                 // sample on the left.
                 let along = [-outward[1], outward[0]];
-                let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-                let kept = position.iter().zip(radius).zip(taken_out);
-                for ((p, r), _) in kept.filter(|(_, &out)| !out) {
-                    lo = lo.min(dot(*p, along) - r);
-                    hi = hi.max(dot(*p, along) + r);
-                }
-                let start = outermost(&|i| dot(position[i], outward) + radius[i]);
+                let reach = |i: usize| dot(position[i], outward) + radius[i];
+                let start = outermost(&reach);
                 let facing = outward[1].atan2(outward[0]);
                 let mut grains = roll.side(start, facing, -1.0);
                 grains.reverse();
                 grains.extend(roll.side(start, facing, 1.0).into_iter().skip(1));
-                Chain {
+                let chain = Chain {
                     grains,
                     closed: false,
                     along,
-                    extent: [lo, hi],
-                }
+                    extent: extent(position, radius, taken_out, along),
+                };
+                (chain, rivals(start))
             }
             MembraneShape::Ring { center } => {
                 let offset = |i: usize| [position[i][0] - center[0], position[i][1] - center[1]];
-                let start = outermost(&|i| offset(i)[0].hypot(offset(i)[1]) + radius[i]);
+                let reach = |i: usize| offset(i)[0].hypot(offset(i)[1]) + radius[i];
+                let start = outermost(&reach);
                 let facing = offset(start)[1].atan2(offset(start)[0]);
-                Chain {
+                let chain = Chain {
                     grains: roll.ring(start, facing),
                     closed: true,
                     along: [0.0; 2],
                     extent: [0.0; 2],
-                }
+                };
+                (chain, rivals(start))
             }
-        }
+        };
+        let hold = start.map(|start| ChainHold::found_on(&roll.rolled.borrow(), &roll, start));
+        (chain, hold)
     }
+}
+
+/// The sample's extent `[lo, hi]` (m) along a side's direction `along`, over the grains not
+/// `taken_out`.
+pub(super) fn extent(
+    position: &[[f64; 2]],
+    radius: &[f64],
+    taken_out: &[bool],
+    along: [f64; 2],
+) -> [f64; 2] {
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    let kept = position.iter().zip(radius).zip(taken_out);
+    for ((p, r), _) in kept.filter(|(_, &out)| !out) {
+        let at = p[0] * along[0] + p[1] * along[1];
+        lo = lo.min(at - r);
+        hi = hi.max(at + r);
+    }
+    [lo, hi]
 }
 
 impl Chain {
@@ -202,20 +239,38 @@ impl Chain {
 }
 
 /// A probe disc of radius `probe` rolling around the outside of the grains.
-struct Roll<'a> {
-    position: &'a [[f64; 2]],
-    radius: &'a [f64],
+pub(super) struct Roll<'a> {
+    pub(super) position: &'a [[f64; 2]],
+    pub(super) radius: &'a [f64],
     /// Grains the probe rests on; it passes through the others.
-    carrying: &'a [bool],
-    probe: f64,
+    pub(super) carrying: &'a [bool],
+    pub(super) probe: f64,
     /// The largest grain's radius and the probe's: a grain is within the probe's reach of a
     /// pivot `r_i + probe` from it when its centre is within `r_i + widest` of the pivot's.
-    widest: f64,
+    pub(super) widest: f64,
     /// Cells `widest` across: a pivot's reach spans at most five of them, which holds fewer
     /// grains out of reach than three of twice the width.
-    grid: CellGrid,
+    pub(super) grid: CellGrid,
     /// The grains within the probe's reach of the pivot, with their estimated turns.
     reached: RefCell<Vec<(f64, usize)>>,
+    /// Every roll about a grain made so far, in order.
+    rolled: RefCell<Vec<Rolled>>,
+}
+
+/// One roll of the probe about a grain ([`Roll::pivot`]) and what it found.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Rolled {
+    /// The grain rolled about, the direction the probe started from and the sense.
+    pub(super) pivot: usize,
+    pub(super) angle: f64,
+    pub(super) sense: f64,
+    /// The grain the probe rolled onto and its turn; none within reach.
+    pub(super) found: Option<(usize, f64)>,
+    /// On a side, the direction it faces: the roll ends where the probe would turn more than
+    /// a quarter turn from it.
+    pub(super) facing: Option<f64>,
+    /// Whether the roll starts the chain, from the outermost grain.
+    pub(super) first: bool,
 }
 
 impl<'a> Roll<'a> {
@@ -234,6 +289,7 @@ impl<'a> Roll<'a> {
             widest,
             grid: CellGrid::new(position, widest),
             reached: RefCell::default(),
+            rolled: RefCell::default(),
         }
     }
 
@@ -243,7 +299,9 @@ impl<'a> Roll<'a> {
     fn side(&self, start: usize, facing: f64, sense: f64) -> Vec<usize> {
         let quarter = 0.5 * std::f64::consts::PI;
         let (mut grains, mut pivot, mut angle) = (vec![start], start, facing);
-        while let Some((next, turn, landed)) = self.pivot(pivot, angle, sense) {
+        while let Some((next, turn, landed)) =
+            self.rolled(pivot, angle, sense, Some(facing), pivot == start)
+        {
             if sense * wrap(angle + sense * turn - facing) > quarter || grains.contains(&next) {
                 break;
             }
@@ -258,7 +316,7 @@ impl<'a> Roll<'a> {
     fn ring(&self, start: usize, facing: f64) -> Vec<usize> {
         let (mut grains, mut pivot, mut angle) = (vec![start], start, facing);
         let mut links = std::collections::HashSet::new();
-        while let Some((next, _, landed)) = self.pivot(pivot, angle, 1.0) {
+        while let Some((next, _, landed)) = self.rolled(pivot, angle, 1.0, None, pivot == start) {
             if next == start {
                 break;
             }
@@ -272,6 +330,27 @@ impl<'a> Roll<'a> {
             (pivot, angle) = (next, landed);
         }
         grains
+    }
+
+    /// [`Roll::pivot`], recorded in `rolled`.
+    fn rolled(
+        &self,
+        i: usize,
+        angle: f64,
+        sense: f64,
+        facing: Option<f64>,
+        first: bool,
+    ) -> Option<(usize, f64, f64)> {
+        let found = self.pivot(i, angle, sense);
+        self.rolled.borrow_mut().push(Rolled {
+            pivot: i,
+            angle,
+            sense,
+            found: found.map(|(j, turn, _)| (j, turn)),
+            facing,
+            first,
+        });
+        found
     }
 
     /// Roll the probe, resting on grain `i` in the direction `angle`, about `i` in the given
@@ -307,17 +386,7 @@ impl<'a> Roll<'a> {
                     continue;
                 }
             }
-            // The probe's centre where it touches `j`, from `p`: `a` along the direction
-            // `alpha - sense beta` of `exact_turn`.
-            let along = (a * a + d2 - b * b) / (2.0 * d2);
-            let across = sense * (a * a / d2 - along * along).max(0.0).sqrt();
-            let centre = [
-                along * branch[0] + across * branch[1],
-                along * branch[1] - across * branch[0],
-            ];
-            let cos = facing[0] * centre[0] + facing[1] * centre[1];
-            let sin = sense * (facing[0] * centre[1] - facing[1] * centre[0]);
-            reached.push((pseudo_angle(sin, cos), j));
+            reached.push((estimated_turn(branch, d2, a, b, facing, sense), j));
         }
         let away_from_whole = |t: f64| (SCREEN..=4.0 - SCREEN).contains(&t);
         let least = reached
@@ -344,6 +413,31 @@ impl<'a> Roll<'a> {
     }
 }
 
+/// The turn the probe rolls from the direction `facing` (a unit vector) about a pivot, `a` from
+/// its centre, before it comes `b` from the centre of a grain `branch` from the pivot's
+/// (`d2` its squared length), as a pseudo-angle ([`pseudo_angle`]): without trigonometry. For
+/// a grain beyond the reach, the turn at which it would come within it.
+pub(super) fn estimated_turn(
+    branch: [f64; 2],
+    d2: f64,
+    a: f64,
+    b: f64,
+    facing: [f64; 2],
+    sense: f64,
+) -> f64 {
+    // The probe's centre where it touches the grain, from the pivot: `a` along the direction
+    // `alpha - sense beta` of `exact_turn`.
+    let along = (a * a + d2 - b * b) / (2.0 * d2);
+    let across = sense * (a * a / d2 - along * along).max(0.0).sqrt();
+    let centre = [
+        along * branch[0] + across * branch[1],
+        along * branch[1] - across * branch[0],
+    ];
+    let cos = facing[0] * centre[0] + facing[1] * centre[1];
+    let sin = sense * (facing[0] * centre[1] - facing[1] * centre[0]);
+    pseudo_angle(sin, cos)
+}
+
 /// How close, in pseudo-angle ([`pseudo_angle`]; at least as much in radians), an estimated
 /// turn must come to the least, or to a whole turn, for its exact turn to be taken: far above
 /// the rounding of either (about 1e-8 rad where the probe only grazes a grain).
@@ -352,7 +446,7 @@ const SCREEN: f64 = 1e-6;
 /// The turn (rad, in `[0, 2 pi)`) the probe's centre, `a` from the pivot's centre `p`, rolls
 /// about `p` from the direction `angle`, in `sense`, before it comes `b` from the centre `q`
 /// of another grain (the probe's radius plus that grain's), which is within its reach.
-fn exact_turn(p: [f64; 2], a: f64, q: [f64; 2], b: f64, angle: f64, sense: f64) -> f64 {
+pub(super) fn exact_turn(p: [f64; 2], a: f64, q: [f64; 2], b: f64, angle: f64, sense: f64) -> f64 {
     let d = (q[0] - p[0]).hypot(q[1] - p[1]);
     // The probe touches `q` at angles alpha -+ beta about `p`; rolling in `sense` it meets
     // the first of these.
@@ -375,7 +469,7 @@ fn pseudo_angle(sin: f64, cos: f64) -> f64 {
 }
 
 /// An angle brought into (-pi, pi].
-fn wrap(angle: f64) -> f64 {
+pub(super) fn wrap(angle: f64) -> f64 {
     let a = angle.rem_euclid(TAU);
     if a > std::f64::consts::PI {
         a - TAU

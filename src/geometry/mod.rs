@@ -1,10 +1,12 @@
 //! Grains and walls: where things are, and the neighbour ('friends') lists that say which
 //! pairs may touch (thesis appendix 3).
 
+mod chain_watch;
 mod friends;
 mod grid;
 mod membrane;
 
+pub use chain_watch::ChainWatch;
 pub use friends::{gap as gap_between, FriendSet, Pair, Side};
 pub use grid::CellGrid;
 pub use membrane::{chains, Chain, Membrane, MembraneShape};

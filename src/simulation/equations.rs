@@ -7,7 +7,7 @@ use super::LoadStep;
 use crate::assembly::{contact_block, frame_turn_force, BlockTangent, DofMap, PairMap, Pattern};
 use crate::contact::{kinematics, Configuration, Contact, ContactLaw, Kinematics, Response};
 use crate::geometry::{
-    rotate, Chain, FriendSet, GrainSet, Membrane, MembraneShape, Pair, Side, WallSet,
+    rotate, Chain, ChainWatch, FriendSet, GrainSet, Membrane, MembraneShape, Pair, Side, WallSet,
 };
 use crate::parallel;
 use crate::solver::stats::{secs, StageTimers};
@@ -35,9 +35,9 @@ pub struct IncrementEquations<'a> {
     /// Whether the chains stay as they are from now on: a grain on the membrane probe's line
     /// can flip them from refreeze to refreeze (see [`super::CHAIN_CHANGES`]).
     pub chains_held: bool,
-    /// The grains' positions where the chains were last found and taken: a refreeze where
-    /// no grain has moved since (a step accepted, then refrozen) finds the same chains.
-    pub chains_found_at: Vec<[f64; 2]>,
+    /// The chains last found: a refreeze where no grain has moved far enough since to change
+    /// them takes them as they are.
+    pub chain_watch: &'a mut ChainWatch,
     /// The grains the membranes may lie on ([`super::membrane_carriers`]).
     pub carriers: &'a [bool],
     /// Springs on the rigid-body motions no wall holds.

@@ -27,7 +27,9 @@ pub use setup::{initial_contacts, MaterialModel, StageProgram};
 
 use crate::assembly::{DofMap, Pattern};
 use crate::contact::{Configuration, ContactLaw, ContactSet, Kinematics};
-use crate::geometry::{chains, Chain, FriendSet, GrainSet, Pair, Side, WallControl, WallSet};
+use crate::geometry::{
+    chains, Chain, ChainWatch, FriendSet, GrainSet, Pair, Side, WallControl, WallSet,
+};
 use crate::measure::{measure, Measurements, MembraneBoundary, Region};
 use crate::memory::HeapBytes;
 use crate::solver::minimise::{MinimiseWork, Potential};
@@ -86,6 +88,8 @@ pub struct Simulation {
     pair_index: Vec<usize>,
     /// Each membrane's chain for the current increment.
     chains: Vec<Chain>,
+    /// The chains last found, kept while their grains move too little to change them.
+    chain_watch: ChainWatch,
     /// The grains the membranes may lie on in the current increment.
     carriers: Vec<bool>,
     /// Springs on the rigid-body motions the walls leave free.
@@ -152,6 +156,7 @@ impl Simulation {
             kin: Vec::new(),
             pair_index: Vec::new(),
             chains,
+            chain_watch: ChainWatch::default(),
             carriers,
             anchors: anchors(&state.grains, &state.walls, &state.contacts.contacts),
             loose: Vec::new(),
@@ -468,7 +473,7 @@ impl Simulation {
             membranes: &self.state.membranes,
             chains: &mut self.chains,
             chains_held: false,
-            chains_found_at: Vec::new(),
+            chain_watch: &mut self.chain_watch,
             carriers: &self.carriers,
             anchors: &self.anchors,
             loose: &mut self.loose,
@@ -574,7 +579,7 @@ impl Simulation {
         } else {
             &self.state.grains.position
         };
-        let chains = chains(
+        let chains = self.chain_watch.chains(
             &self.state.membranes,
             position,
             &self.state.grains.radius,

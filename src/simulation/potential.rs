@@ -7,7 +7,7 @@
 use super::equations::{IncrementEquations, CLOSING_OVERLAP, REACH};
 use super::grain_balance::{GrainBalance, LocalContact};
 use crate::contact::{friction, kinematics, Contact, Kinematics, Response};
-use crate::geometry::{chains, surely_shorter, Side};
+use crate::geometry::{surely_shorter, Side};
 use crate::solver::minimise::Potential;
 use crate::NumericError;
 
@@ -210,11 +210,10 @@ impl IncrementEquations<'_> {
     /// At a refreeze, each membrane's chain on the grains where they are now, unless the
     /// chains are held; a chain the pattern does not couple is noted and not taken.
     pub(super) fn refreeze_chains(&mut self) {
-        if self.membranes.is_empty() || self.chains_held || self.chains_found_at == self.q.position
-        {
+        if self.membranes.is_empty() || self.chains_held {
             return;
         }
-        let chains = chains(
+        let chains = self.chain_watch.chains(
             self.membranes,
             &self.q.position,
             &self.grains.radius,
@@ -234,7 +233,6 @@ impl IncrementEquations<'_> {
             self.chains_held = self.chain_changes >= CHAIN_CHANGES;
         }
         *self.chains = chains;
-        self.chains_found_at.clone_from(&self.q.position);
     }
 }
 
