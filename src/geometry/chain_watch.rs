@@ -11,6 +11,7 @@
 
 use super::membrane::{estimated_turn, exact_turn, extent, wrap, Roll, Rolled};
 use super::{Chain, Membrane, MembraneShape, SQUARED_DOUBT};
+use crate::memory::HeapBytes;
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 use std::ops::Range;
 
@@ -77,6 +78,27 @@ impl ChainWatch {
         copy(&mut self.carrying, carrying);
         copy(&mut self.taken_out, taken_out);
         chains
+    }
+
+    /// The bytes it holds on the heap.
+    pub(crate) fn heap_bytes(&self) -> usize {
+        let chains: usize = self.chains.iter().map(|c| c.grains.heap_bytes()).sum();
+        let holds: usize = (self.holds.iter())
+            .map(|h| {
+                h.start.rivals.heap_bytes()
+                    + h.lengths.heap_bytes()
+                    + h.pivots.heap_bytes()
+                    + h.turns.heap_bytes()
+            })
+            .sum();
+        chains
+            + self.chains.heap_bytes()
+            + holds
+            + self.holds.heap_bytes()
+            + self.position.heap_bytes()
+            + self.radius.heap_bytes()
+            + self.carrying.heap_bytes()
+            + self.taken_out.heap_bytes()
     }
 
     /// Whether the chains last found are those the probe would find now: the same grains

@@ -229,7 +229,8 @@ impl Simulation {
             + self.carriers.heap_bytes()
             + self.loose.heap_bytes()
             + self.anchors.heap_bytes()
-            + chains;
+            + chains
+            + self.chain_watch.heap_bytes();
         vec![
             ("grains (the state's)", grains.iter().sum()),
             ("contacts and broken bonds (the state's)", contacts),
