@@ -140,6 +140,12 @@ pub struct Breakout {
     pub pressure: Vec<f64>,
     /// Each wall's applied stress then (Pa), `None` for a wall under displacement control.
     pub stress: Vec<Option<f64>>,
+    /// Whether it is debris, not the wall breaking: no grain of it was ever cemented, and
+    /// none touched anything at the last equilibrium (a rattler of the sample squeezed out).
+    /// It is taken out as any breakout, but is no functional failure: a stage that ends at its
+    /// first breakout goes on past it, and the cylinder test's first breakout is the first
+    /// that is not debris.
+    pub debris: bool,
 }
 
 impl Breakout {

@@ -157,6 +157,7 @@ fn a_run_resumed_after_a_breakout_repeats_the_uninterrupted_one_and_reports_it()
         pressure: 3e6,
         grains: cluster.len(),
         bonds_broken: breakout.bonds_broken,
+        debris: false,
     };
     assert_eq!(failure.breakouts, [expected]);
     assert_eq!(failure.first_breakout(), Some(3e6));

@@ -180,6 +180,7 @@ fn state(k: usize) -> State {
             increment: 2,
             grains: vec![3],
             bonds_broken: 1,
+            debris: false,
             pressure: Vec::new(),
             stress: vec![None, None, Some(1.0e5 + 1.0e3 / 3.0), None],
         })

@@ -55,6 +55,9 @@ pub struct CylinderBreakout {
     pub grains: usize,
     /// Bonds between it and the sample that broke as it was taken out.
     pub bonds_broken: usize,
+    /// Whether it is debris, a rattler squeezed out, not the wall breaking
+    /// ([`Breakout::debris`]).
+    pub debris: bool,
 }
 
 impl CylinderBreakout {
@@ -65,6 +68,7 @@ impl CylinderBreakout {
             pressure: breakout.pressure[ring],
             grains: breakout.grains.len(),
             bonds_broken: breakout.bonds_broken,
+            debris: breakout.debris,
         }
     }
 }
@@ -159,9 +163,13 @@ impl CylinderFailure {
         self.first(|r| r.broken_in_region as f64 >= LOCAL_FAILURE * bonds)
     }
 
-    /// Pressure at which the first cluster of grains broke out of the borehole's surface.
+    /// Pressure at which the first cluster of grains broke out of the borehole's surface
+    /// (debris aside).
     pub fn first_breakout(&self) -> Option<f64> {
-        self.breakouts.first().map(|b| b.pressure)
+        self.breakouts
+            .iter()
+            .find(|b| !b.debris)
+            .map(|b| b.pressure)
     }
 
     /// Pressure at which the borehole lost its function: the first breakout, else the
@@ -256,14 +264,15 @@ impl CylinderFailure {
         }
         if !self.breakouts.is_empty() {
             text.push_str(
-                "\nClusters broken out of the borehole's surface:\n\n| breakout | increment | pressure [Pa] | grains | bonds broken with it | grains broken out so far |\n|---|---|---|---|---|---|\n",
+                "\nClusters broken out of the borehole's surface (debris: rattlers squeezed out, no functional failure):\n\n| breakout | increment | pressure [Pa] | grains | bonds broken with it | grains broken out so far |\n|---|---|---|---|---|---|\n",
             );
             let mut so_far = 0;
             for (k, b) in self.breakouts.iter().enumerate() {
                 so_far += b.grains;
+                let debris = if b.debris { " (debris)" } else { "" };
                 let _ = writeln!(
                     text,
-                    "| {} | {} | {} | {} | {} | {so_far} |",
+                    "| {}{debris} | {} | {} | {} | {} | {so_far} |",
                     k + 1,
                     b.increment,
                     significant(b.pressure),

@@ -64,6 +64,7 @@ impl Simulation {
             self.state.grains.taken_out[g] = true;
         }
         let increment = self.state.increment + 1;
+        let debris = self.is_debris(&cluster);
         let out = &self.state.grains.taken_out;
         let law = self.law.as_ref();
         let ContactSet {
@@ -101,6 +102,7 @@ impl Simulation {
             increment,
             grains: cluster,
             bonds_broken,
+            debris,
             pressure: self.state.membranes.iter().map(|m| m.pressure).collect(),
             stress: (self.state.walls.walls.iter())
                 .map(|w| (w.control == WallControl::Stress).then_some(w.stress))
@@ -108,6 +110,20 @@ impl Simulation {
         };
         self.state.breakouts.push(breakout.clone());
         breakout
+    }
+
+    /// Whether `cluster` is debris ([`Breakout::debris`]): none of its grains ever cemented,
+    /// none touching anything (a grain or a wall) where the increment started.
+    fn is_debris(&self, cluster: &[usize]) -> bool {
+        let contacts = &self.state.contacts;
+        let of_cluster = |pair: &crate::geometry::Pair| {
+            let a = matches!(pair.a, Side::Grain(a) if cluster.binary_search(&a).is_ok());
+            a || cluster.binary_search(&pair.b).is_ok()
+        };
+        let held = (contacts.contacts.iter())
+            .any(|c| of_cluster(&c.pair) && (c.bonded || c.broken || c.start_overlap > 0.0));
+        let cemented = (contacts.broken_bonds.iter()).any(|b| of_cluster(&b.pair));
+        !held && !cemented
     }
 
     /// Take out, in a stage that takes breakouts out, each cluster of the committed state that
@@ -304,6 +320,55 @@ mod tests {
                     "{strategy:?}: imbalance {error:e} at grain {grain}"
                 );
             }
+        }
+    }
+
+    /// A grain never cemented that touches nothing where the increment starts comes out as
+    /// debris; one cemented to another does not, nor does a cluster of it and a rattler.
+    #[test]
+    fn a_rattler_comes_out_as_debris() {
+        let scene = crate::scene::parse_scene(
+            r#"
+name = "rattler"
+[material]
+law = "linear"
+normal_stiffness = 1e6
+bonded = true
+[grains]
+x = [0.0, 2e-4, 1e-3, 5e-4, 7.1e-4]
+y = [0.0, 0.0, 0.0, 5e-4, 5e-4]
+r = [1e-4, 1e-4, 1e-4, 1e-4, 1e-4]
+[box]
+[[stages]]
+increments = 1
+"#,
+            "rattler.toml",
+        )
+        .unwrap();
+        let new = || {
+            let grains = build_grains(&scene.grains, Path::new("."), "t").unwrap();
+            Simulation::new(&scene, grains, SolverConfig::default(), "t").unwrap()
+        };
+        let sim = new();
+        let bonded = |g: usize| {
+            let c = &sim.state.contacts.contacts;
+            c.iter()
+                .any(|c| c.bonded && (c.pair.b == g || c.pair.a == Side::Grain(g)))
+        };
+        // 0 and 1 touch and are cemented; 2 touches nothing; 3 and 4 are a hair apart.
+        assert!(bonded(0) && bonded(1) && !bonded(2) && !bonded(3));
+        for (cluster, debris) in [
+            (vec![2], true),
+            (vec![3], true),
+            (vec![0], false),
+            (vec![1, 2], false),
+        ] {
+            let mut sim = new();
+            assert_eq!(
+                sim.take_out(&cluster).unwrap().debris,
+                debris,
+                "{cluster:?}"
+            );
         }
     }
 

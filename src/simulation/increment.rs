@@ -443,7 +443,7 @@ impl Simulation {
                 {
                     let breakout = self.remove_cluster(&grains);
                     report.bonds_broken += breakout.bonds_broken;
-                    if self.stages[self.state.stage].until_breakout {
+                    if self.stages[self.state.stage].until_breakout && !breakout.debris {
                         return Err(NumericError::BrokeOut {
                             increment: self.state.increment + 1,
                             grains: breakout.grains,

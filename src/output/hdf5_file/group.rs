@@ -302,6 +302,7 @@ pub(super) fn write_breakouts(
     put_plain(&group, "increment", column(|b| b.increment).view())?;
     put_plain(&group, "grain_count", column(|b| b.grains.len()).view())?;
     put_plain(&group, "bonds_broken", column(|b| b.bonds_broken).view())?;
+    put_plain(&group, "debris", column(|b| usize::from(b.debris)).view())?;
     let grains: Array1<i64> = (list.iter().flat_map(|b| &b.grains))
         .map(|&i| i as i64)
         .collect();
@@ -334,6 +335,12 @@ pub(super) fn read_breakouts(
     let count = Some(increment.len());
     let grain_count = read_vec::<i64>(&group, "grain_count", count)?;
     let bonds_broken = read_vec::<i64>(&group, "bonds_broken", count)?;
+    // Files written before debris was told apart have none.
+    let debris = if group.link_exists("debris") {
+        read_vec::<i64>(&group, "debris", count)?
+    } else {
+        vec![0; increment.len()]
+    };
     let all = read_vec::<i64>(&group, "grains", None)?;
     let pressure = read_table(&group, "membrane_pressure", increment.len(), membranes)?;
     let stress = read_table(&group, "wall_stress", increment.len(), walls)?;
@@ -367,6 +374,7 @@ pub(super) fn read_breakouts(
             increment: natural("increment", increment[k])?,
             grains: cluster,
             bonds_broken: natural("bonds_broken", bonds_broken[k])?,
+            debris: debris[k] != 0,
             pressure: pressure[k].clone(),
             stress: stress[k]
                 .iter()

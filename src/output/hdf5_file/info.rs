@@ -169,10 +169,11 @@ fn breakouts_line(state: &State) -> String {
                 false => format!("; {}", loads.join(", ")),
             };
             format!(
-                "increment {} ({}, {}{loads})",
+                "increment {} ({}, {}{loads}){}",
                 b.increment,
                 plural(b.grains.len(), "grain", "grains"),
                 plural(b.bonds_broken, "bond broken", "bonds broken"),
+                if b.debris { " debris" } else { "" },
             )
         })
         .collect::<Vec<_>>()
