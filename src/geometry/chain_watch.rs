@@ -193,6 +193,9 @@ pub(super) struct Start {
     rivals: Vec<usize>,
     /// The mean radius: any other grain reaches less by at least this.
     others: f64,
+    /// A ring's: its distance from the centre, from which the probe's first direction is
+    /// taken; none on a side.
+    from_centre: Option<f64>,
 }
 
 impl Default for Start {
@@ -202,6 +205,7 @@ impl Default for Start {
             shape: MembraneShape::Ring { center: [0.0; 2] },
             rivals: Vec::new(),
             others: 0.0,
+            from_centre: None,
         }
     }
 }
@@ -217,11 +221,17 @@ impl Start {
         carrying: &[bool],
         r_mean: f64,
     ) -> Start {
+        let p = position[grain];
+        let from_centre = match shape {
+            MembraneShape::Side { .. } => None,
+            MembraneShape::Ring { center } => Some(length(p[0] - center[0], p[1] - center[1])),
+        };
         let mut start = Start {
             grain,
             shape,
             rivals: Vec::new(),
             others: r_mean,
+            from_centre,
         };
         let furthest = start.reach(grain, position, radius);
         start.rivals = (0..position.len())
@@ -242,15 +252,6 @@ impl Start {
         }
     }
 
-    /// A ring's start grain's distance from the centre; none on a side.
-    fn distance_from_centre(&self, position: &[[f64; 2]]) -> Option<f64> {
-        let p = position[self.grain];
-        match self.shape {
-            MembraneShape::Side { .. } => None,
-            MembraneShape::Ring { center } => Some(length(p[0] - center[0], p[1] - center[1])),
-        }
-    }
-
     /// Whether it is still the start after the grains' `moves`, none longer than `anywhere`:
     /// it reaches further than each rival, measured anew, and no other grain has come a mean
     /// radius nearer.
@@ -266,8 +267,6 @@ impl Start {
 #[derive(Debug, Clone, Default)]
 pub(super) struct ChainHold {
     start: Start,
-    /// A ring's start grain's distance from its centre (m).
-    from_centre: Option<f64>,
     /// How far beyond every pivot's reach the grains not measured lie, at least (m).
     beyond: f64,
     /// Room for rounding in a comparison of lengths (m).
@@ -429,7 +428,6 @@ impl ChainHold {
         // that changes a length by less brings them within reach.
         let beyond = 0.5 * roll.widest;
         let mut hold = ChainHold {
-            from_centre: start.distance_from_centre(roll.position),
             start,
             beyond,
             slack: LENGTH_SLACK * roll.probe,
@@ -551,7 +549,7 @@ impl ChainHold {
             let incoming = match pivot.incoming {
                 Incoming::Fixed => 0.0,
                 Incoming::Centre => {
-                    let distance = self.from_centre.unwrap_or(0.0);
+                    let distance = self.start.from_centre.unwrap_or(0.0);
                     direction_change(moves.of(self.start.grain), distance)
                 }
                 Incoming::Roll { pivot, grain, a, b } => {

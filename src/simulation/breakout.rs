@@ -113,17 +113,35 @@ impl Simulation {
     }
 
     /// Whether `cluster` is debris ([`Breakout::debris`]): none of its grains ever cemented,
-    /// none touching anything (a grain or a wall) where the increment started.
+    /// none touching or glued to anything (a grain or a wall) where the increment started.
     fn is_debris(&self, cluster: &[usize]) -> bool {
-        let contacts = &self.state.contacts;
-        let of_cluster = |pair: &crate::geometry::Pair| {
-            let a = matches!(pair.a, Side::Grain(a) if cluster.binary_search(&a).is_ok());
-            a || cluster.binary_search(&pair.b).is_ok()
-        };
-        let held = (contacts.contacts.iter())
-            .any(|c| of_cluster(&c.pair) && (c.bonded || c.broken || c.start_overlap > 0.0));
-        let cemented = (contacts.broken_bonds.iter()).any(|b| of_cluster(&b.pair));
-        !held && !cemented
+        let cemented = self.cemented_once();
+        let touched = (self.state.contacts.contacts.iter())
+            .filter(|c| c.start_overlap > 0.0 || c.bonded)
+            .any(|c| {
+                matches!(c.pair.a, Side::Grain(a) if cluster.binary_search(&a).is_ok())
+                    || cluster.binary_search(&c.pair.b).is_ok()
+            });
+        !touched && !cluster.iter().any(|&g| cemented[g])
+    }
+
+    /// Each grain's: whether it was ever cemented, a bond of it intact or broken.
+    fn cemented_once(&self) -> Vec<bool> {
+        let mut cemented = vec![false; self.state.grains.len()];
+        let ContactSet {
+            contacts,
+            broken_bonds,
+        } = &*self.state.contacts;
+        let pairs = (contacts.iter())
+            .filter(|c| c.bonded || c.broken)
+            .map(|c| c.pair)
+            .chain(broken_bonds.iter().map(|b| b.pair));
+        for pair in pairs {
+            if let Side::Grain(a) = pair.a {
+                (cemented[a], cemented[pair.b]) = (true, true);
+            }
+        }
+        cemented
     }
 
     /// Take out, in a stage that takes breakouts out, each cluster of the committed state that
@@ -164,20 +182,12 @@ impl Simulation {
             }
             g
         }
-        let mut cemented = vec![false; n];
+        let cemented = self.cemented_once();
         for c in &self.state.contacts.contacts {
             let Side::Grain(a) = c.pair.a else { continue };
-            if c.bonded || c.broken {
-                (cemented[a], cemented[c.pair.b]) = (true, true);
-            }
             if c.bonded || c.overlap > 0.0 {
                 let (ra, rb) = (find(&mut root, a), find(&mut root, c.pair.b));
                 root[ra.max(rb)] = ra.min(rb);
-            }
-        }
-        for b in &self.state.contacts.broken_bonds {
-            if let Side::Grain(a) = b.pair.a {
-                (cemented[a], cemented[b.pair.b]) = (true, true);
             }
         }
         let root: Vec<usize> = (0..n).map(|g| find(&mut root, g)).collect();
@@ -268,6 +278,7 @@ mod tests {
     use super::*;
     use crate::samples;
     use crate::scene::build_grains;
+    use crate::simulation::tests::simulation_of;
     use crate::solver::{SolverConfig, Strategy};
     use std::path::Path;
 
@@ -327,8 +338,9 @@ mod tests {
     /// debris; one cemented to another does not, nor does a cluster of it and a rattler.
     #[test]
     fn a_rattler_comes_out_as_debris() {
-        let scene = crate::scene::parse_scene(
-            r#"
+        let new = || {
+            simulation_of(
+                r#"
 name = "rattler"
 [material]
 law = "linear"
@@ -342,12 +354,7 @@ r = [1e-4, 1e-4, 1e-4, 1e-4, 1e-4]
 [[stages]]
 increments = 1
 "#,
-            "rattler.toml",
-        )
-        .unwrap();
-        let new = || {
-            let grains = build_grains(&scene.grains, Path::new("."), "t").unwrap();
-            Simulation::new(&scene, grains, SolverConfig::default(), "t").unwrap()
+            )
         };
         let sim = new();
         let bonded = |g: usize| {

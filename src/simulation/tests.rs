@@ -278,13 +278,20 @@ fn an_increment_starts_from_committed_contacts_it_keeps_whole() {
     assert!(cuts > 0, "no increment in parts");
 }
 
+/// A simulation of the scene `text`, with the default solver.
+pub(crate) fn simulation_of(text: &str) -> Simulation {
+    let scene = crate::scene::parse_scene(text, "scene.toml").unwrap();
+    let grains = build_grains(&scene.grains, Path::new("."), "t").unwrap();
+    Simulation::new(&scene, grains, SolverConfig::default(), "t").unwrap()
+}
+
 /// Two grains closing on a small loose grain between them from sides half a degree from
 /// opposite: its least way out, with the pairs linearised where it is, lies some forty of its
 /// radii along the wedge. A placement that far is not made: the grain stays where it was,
 /// and is taken in among the others.
 #[test]
 fn a_loose_grain_is_not_placed_further_than_its_radius() {
-    let scene = crate::scene::parse_scene(
+    let mut sim = simulation_of(
         r#"
 name = "wedge"
 [material]
@@ -299,11 +306,7 @@ r = [1e-4, 1e-4, 4e-6]
 [[stages]]
 increments = 1
 "#,
-        "wedge.toml",
-    )
-    .unwrap();
-    let grains = build_grains(&scene.grains, Path::new("."), "t").unwrap();
-    let mut sim = Simulation::new(&scene, grains, SolverConfig::default(), "t").unwrap();
+    );
     let step = sim.next_load_step();
     sim.start_step();
     sim.start_newton().unwrap();
